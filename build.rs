@@ -1,0 +1,97 @@
+//! Finds Debian's Embree (3 or 4) and generates its bindings with bindgen.
+//!
+//! Search order: `EMBREE_DIR` (a prefix holding `include/embree{4,3}` and
+//! `lib`), then `/usr/include/embree4`, then `/usr/include/embree3`. Emits
+//! `cfg(embree4)` or `cfg(embree3)` so the safe wrapper compiles against either.
+
+use std::env;
+use std::path::{Path, PathBuf};
+
+struct Found {
+    include_dir: PathBuf,
+    header: PathBuf,
+    lib_dir: Option<PathBuf>,
+    major: u32,
+}
+
+fn find_in(prefix: &Path, lib_dir: Option<PathBuf>) -> Option<Found> {
+    for major in [4u32, 3] {
+        let inc = prefix.join(format!("embree{major}"));
+        let header = inc.join("rtcore.h");
+        if header.is_file() {
+            return Some(Found {
+                include_dir: prefix.to_path_buf(),
+                header,
+                lib_dir,
+                major,
+            });
+        }
+    }
+    None
+}
+
+fn find() -> Option<Found> {
+    if let Ok(dir) = env::var("EMBREE_DIR") {
+        let dir = PathBuf::from(dir);
+        for lib in ["lib", "lib64"] {
+            let lib_dir = dir.join(lib);
+            if lib_dir.is_dir() {
+                if let Some(f) = find_in(&dir.join("include"), Some(lib_dir)) {
+                    return Some(f);
+                }
+            }
+        }
+        if let Some(f) = find_in(&dir.join("include"), None) {
+            return Some(f);
+        }
+    }
+    find_in(Path::new("/usr/include"), None)
+}
+
+fn main() {
+    println!("cargo:rerun-if-env-changed=EMBREE_DIR");
+    println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo::rustc-check-cfg=cfg(embree3)");
+    println!("cargo::rustc-check-cfg=cfg(embree4)");
+
+    let Some(found) = find() else {
+        // One clear line: the fix is a package install.
+        println!(
+            "cargo::error=Embree not found (looked in $EMBREE_DIR, /usr/include/embree4, /usr/include/embree3): install it with `sudo apt-get install libembree-dev` (and `libclang-dev` for bindgen), or set EMBREE_DIR"
+        );
+        return;
+    };
+
+    println!("cargo:rustc-cfg=embree{}", found.major);
+    if let Some(lib_dir) = &found.lib_dir {
+        println!("cargo:rustc-link-search=native={}", lib_dir.display());
+    }
+    println!("cargo:rustc-link-lib=embree{}", found.major);
+    println!("cargo:rerun-if-changed={}", found.header.display());
+
+    let bindings = bindgen::Builder::default()
+        .header(found.header.to_string_lossy())
+        .clang_arg(format!("-I{}", found.include_dir.display()))
+        .allowlist_function("rtc.*")
+        .allowlist_type("RTC.*")
+        .allowlist_var("RTC.*")
+        .default_enum_style(bindgen::EnumVariation::Consts)
+        .prepend_enum_name(false)
+        .layout_tests(false)
+        .derive_default(true)
+        .generate();
+    let bindings = match bindings {
+        Ok(b) => b,
+        Err(e) => {
+            println!(
+                "cargo::error=bindgen failed on {}: {e} (is libclang-dev installed?)",
+                found.header.display()
+            );
+            return;
+        }
+    };
+    let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
+    bindings
+        .write_to_file(out.join("embree_bindings.rs"))
+        .expect("OUT_DIR is writable");
+}
