@@ -1,0 +1,14 @@
+//! The frame pipeline: scene → G-buffer → U, samples, shadow rays → composite.
+
+pub mod estimate;
+pub mod frame;
+pub mod gbuffer;
+mod hash;
+pub mod mode;
+pub mod primary;
+pub mod world;
+
+pub use frame::{Frame, PhaseTimes, RenderSettings};
+pub use gbuffer::{GSample, PixelKind};
+pub use mode::Mode;
+pub use world::World;

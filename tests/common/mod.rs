@@ -1,0 +1,71 @@
+//! Shared helpers for the integration tests.
+#![allow(dead_code)]
+
+use penumbra::embree::{self, Device};
+use penumbra::render::{Frame, Mode, RenderSettings, World};
+use penumbra::scene::Scene;
+use std::path::{Path, PathBuf};
+
+pub fn scene_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+pub fn load(name: &str) -> Scene {
+    Scene::load(&scene_path(name)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub struct Job {
+    pub width: u32,
+    pub height: u32,
+    pub mode: Mode,
+    pub spp: u32,
+    pub frames: u32,
+    pub threads: usize,
+    pub seed: u32,
+}
+
+impl Default for Job {
+    fn default() -> Self {
+        Job {
+            width: 160,
+            height: 90,
+            mode: Mode::Unshadowed,
+            spp: 1,
+            frames: 1,
+            threads: 1,
+            seed: 0,
+        }
+    }
+}
+
+/// Renders `job.frames` frames of the scene's own camera and returns the frame state.
+pub fn render(scene: &Scene, job: &Job) -> Frame {
+    let device = Device::new().expect("Embree starts");
+    let world = World::build(&device, scene.clone()).expect("scene builds");
+    let pool = embree::thread_pool(job.threads);
+    let settings = RenderSettings {
+        mode: job.mode,
+        spp: job.spp,
+        seed: job.seed,
+    };
+    let mut frame = Frame::new(job.width, job.height);
+    let camera = scene.camera;
+    pool.install(|| {
+        for _ in 0..job.frames {
+            frame.render(&world, &camera, &settings);
+        }
+    });
+    frame
+}
+
+/// The frame's colour as raw bytes, for bit-exact comparisons.
+pub fn color_bytes(frame: &Frame) -> Vec<u8> {
+    frame
+        .color
+        .iter()
+        .flat_map(|c| c.to_array())
+        .flat_map(f32::to_le_bytes)
+        .collect()
+}
