@@ -77,10 +77,9 @@ impl Device {
         // Embree expects and `user` points to the boxed slot, which we keep
         // alive until after the callback is unregistered in Drop.
         unsafe { sys::rtcSetDeviceErrorFunction(raw, Some(on_error), user) };
+        let prop = sys::RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED;
         // SAFETY: `raw` is a live device and this property is read-only.
-        let ray_mask_supported =
-            unsafe { sys::rtcGetDeviceProperty(raw, sys::RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED) }
-                != 0;
+        let ray_mask_supported = unsafe { sys::rtcGetDeviceProperty(raw, prop) } != 0;
         let device = Device {
             raw,
             errors,
