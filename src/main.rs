@@ -43,7 +43,7 @@ struct SceneArgs {
     #[arg(long)]
     height: Option<u32>,
     /// ratio | stochastic | soft-shadow | unshadowed | reference
-    #[arg(long, default_value = "unshadowed")]
+    #[arg(long, default_value = "ratio")]
     mode: Mode,
     /// Light samples per pixel per frame (`reference`: in total).
     #[arg(long, default_value_t = 1)]
@@ -181,11 +181,12 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     let device = Device::new().context("starting Embree")?;
     let camera = scene.camera;
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
-    let pool = embree::thread_pool(c.threads);
+    let pool = embree::thread_pool(c.threads)?;
     let settings = RenderSettings {
         mode: c.mode,
         spp: c.spp.max(1),
         seed: c.seed,
+        ..RenderSettings::default()
     };
     let mut frame = Frame::new(w, h);
     let mut last = None;

@@ -138,7 +138,7 @@ fn motion_points_to_where_the_surface_was_in_the_previous_frame() {
     let world = World::build(&device, scene).unwrap();
     let mut frame = Frame::new(160, 90);
     let settings = RenderSettings::default();
-    embree::thread_pool(1).install(|| {
+    embree::thread_pool(1).unwrap().install(|| {
         frame.render(&world, &before, &settings);
         frame.render(&world, &after, &settings);
     });

@@ -1,15 +1,40 @@
-//! Per-pixel light estimates: analytic `U` and, per mode, the stochastic
-//! `U_N`, `S_N` that the composite turns into the frame.
+//! Per-pixel light estimates: analytic `U`, and the stochastic `U_N`, `S_N`
+//! made from the SAME samples (only `S_N` multiplies by visibility).
+//!
+//! A sample is drawn in three steps, all from the pixel's low-discrepancy
+//! stream: a light, chosen in proportion to its analytic `U` (so the shadow
+//! ray budget does not grow with the number of lights); a strategy, light or
+//! BRDF sampling (one-sample MIS, balance heuristic); a direction. Its
+//! weight `f · L · cos / (P_light · p_mis)` goes to `U_N`, and to `S_N` once
+//! its shadow ray comes back unoccluded.
 
 use super::gbuffer::{GSample, PixelKind};
 use super::mode::Mode;
+use super::shadow::{ShadowBatch, ShadowRay};
 use super::world::World;
+use crate::sampling::brdf_sample::{brdf_pdf, sample_brdf, spec_lobe_probability};
+use crate::sampling::light::{intersect_light, light_pdf, sample_light, sample_light_area_uniform};
+use crate::sampling::sequence::{sample_1d, sample_2d};
+use crate::shading::brdf::{self, alpha_from_roughness};
 use crate::shading::{SurfacePoint, unshadowed};
 use glam::Vec3;
 
-pub fn mode_available(mode: Mode) -> bool {
-    matches!(mode, Mode::Unshadowed)
+pub fn mode_available(_mode: Mode) -> bool {
+    true
 }
+
+/// Dimensions of the per-pixel sample stream.
+const DIM_LIGHT: u32 = 0;
+const DIM_STRATEGY: u32 = 1;
+const DIM_LOBE: u32 = 2;
+const DIM_DIR: u32 = 3;
+
+/// Share of light choice spread uniformly over the lights, so a light whose
+/// analytic `U` is (wrongly or barely) zero still gets samples: the
+/// estimator stays unbiased whatever `U` says.
+const UNIFORM_LIGHT_SHARE: f32 = 0.1;
+
+const LUMA: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
 #[inline]
 pub fn surface_point(g: &GSample) -> SurfacePoint {
@@ -23,24 +48,151 @@ pub fn surface_point(g: &GSample) -> SurfacePoint {
     }
 }
 
-/// Analytic unshadowed light, all lights summed; zero off surfaces.
+/// Analytic unshadowed light per light into `per_light`; returns their sum.
+/// Zero off surfaces.
 #[inline]
-pub fn analytic_u(world: &World, g: &GSample) -> Vec3 {
+pub fn analytic_u(world: &World, g: &GSample, per_light: &mut [Vec3]) -> Vec3 {
     if g.kind != PixelKind::Surface {
+        per_light.fill(Vec3::ZERO);
         return Vec3::ZERO;
     }
     let sp = surface_point(g);
-    world
-        .scene
-        .lights
-        .iter()
-        .map(|light| unshadowed(&sp, light))
-        .sum()
+    let mut total = Vec3::ZERO;
+    for (u, light) in per_light.iter_mut().zip(&world.scene.lights) {
+        *u = unshadowed(&sp, light);
+        total += *u;
+    }
+    total
+}
+
+/// Which light a sample goes to: in proportion to the luminance of the
+/// lights' analytic `U`, mixed with a uniform share.
+#[inline]
+fn pick_light(per_light: &[Vec3], xi: f32) -> (usize, f32) {
+    let n = per_light.len();
+    let total: f32 = per_light.iter().map(|u| u.dot(LUMA)).sum();
+    let uniform = if total > 0.0 { UNIFORM_LIGHT_SHARE } else { 1.0 };
+    let prob = |u: Vec3| uniform / n as f32 + (1.0 - uniform) * if total > 0.0 { u.dot(LUMA) / total } else { 0.0 };
+    let mut acc = 0.0;
+    for (k, u) in per_light.iter().enumerate() {
+        let p = prob(*u);
+        acc += p;
+        if xi < acc || k + 1 == n {
+            return (k, p);
+        }
+    }
+    (n - 1, prob(per_light[n - 1]))
+}
+
+/// Where a sample's shadow ray starts: off the surface along the geometric
+/// normal (which faces the camera), by an amount that grows with the
+/// magnitude of the coordinates (float spacing) and the hit distance. Always
+/// on the camera's side: a direction below the geometric surface, allowed by
+/// a bent shading normal, must cross the surface and be shadowed by it.
+#[inline]
+pub fn shadow_origin(g: &GSample) -> Vec3 {
+    let scale = g.position.abs().max_element().max(g.depth).max(1.0);
+    g.position + g.ng * (2e-5 * scale)
+}
+
+/// Which estimator a pixel's samples feed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Estimator {
+    /// MIS of light and BRDF sampling: `U_N` and `S_N` (ratio, stochastic, reference).
+    Mis,
+    /// Uniform points on the light's area, each weighted by the pixel's
+    /// total `U`: `S_N / U_N` is the plain average visibility (soft-shadow).
+    AreaVisibility,
+}
+
+/// Draws `spp` samples for one pixel, adds their weights to `un`, and queues
+/// their shadow rays in `batch` (to be added to `S_N` when unoccluded).
+#[allow(clippy::too_many_arguments)]
+pub fn draw_samples(
+    world: &World,
+    g: &GSample,
+    per_light: &[Vec3],
+    u_total: Vec3,
+    estimator: Estimator,
+    stream: (u32, u32, u32),
+    spp: u32,
+    pixel_slot: u32,
+    un: &mut Vec3,
+    batch: &mut ShadowBatch,
+) {
+    let (pixel, first_sample, seed) = stream;
+    if g.kind != PixelKind::Surface || world.scene.lights.is_empty() {
+        return;
+    }
+    let inv_spp = 1.0 / spp as f32;
+    let n = g.ns;
+    let wo = g.wo;
+    let alpha = alpha_from_roughness(g.roughness);
+    let p_spec = spec_lobe_probability(g.diffuse, g.specular, n.dot(wo));
+    // Light sampling serves diffuse surfaces best, BRDF sampling glossy ones;
+    // one-sample MIS needs both whenever the specular lobe exists.
+    let p_light_strategy = if p_spec > 0.0 { 0.5 } else { 1.0 };
+    for s in 0..spp {
+        let index = first_sample.wrapping_add(s);
+        let (li, p_choose) = pick_light(per_light, sample_1d(pixel, index, DIM_LIGHT, seed));
+        let light = &world.scene.lights[li];
+        let dir_u = sample_2d(pixel, index, DIM_DIR, seed);
+        if estimator == Estimator::AreaVisibility {
+            let q = sample_light_area_uniform(light, dir_u);
+            let to = q - g.position;
+            let dist = to.length();
+            if !(dist > 0.0 && dist.is_finite()) {
+                continue;
+            }
+            let wi = to / dist;
+            let w = u_total * inv_spp;
+            *un += w;
+            batch.push(ShadowRay::new(shadow_origin(g), wi, dist, pixel_slot, w));
+            continue;
+        }
+        let use_light = sample_1d(pixel, index, DIM_STRATEGY, seed) < p_light_strategy;
+        let (wi, dist) = if use_light {
+            match sample_light(light, g.position, dir_u) {
+                Some(ls) => (ls.wi, ls.dist),
+                None => continue,
+            }
+        } else {
+            let lobe = sample_1d(pixel, index, DIM_LOBE, seed);
+            let Some(bs) = sample_brdf(n, wo, alpha, p_spec, lobe, dir_u) else {
+                continue;
+            };
+            match intersect_light(light, g.position, bs.wi) {
+                Some(d) => (bs.wi, d),
+                None => continue,
+            }
+        };
+        let cos = n.dot(wi);
+        if cos <= 0.0 {
+            continue;
+        }
+        let pdf_light = light_pdf(light, g.position, wi).map_or(0.0, |(p, _)| p);
+        let pdf_brdf = if p_light_strategy < 1.0 {
+            brdf_pdf(n, wo, wi, alpha, p_spec)
+        } else {
+            0.0
+        };
+        let pdf = p_light_strategy * pdf_light + (1.0 - p_light_strategy) * pdf_brdf;
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            continue;
+        }
+        let f = brdf::eval(n, wi, wo, g.diffuse, g.specular, g.roughness);
+        let w = f * light.radiance * (cos * inv_spp / (p_choose * pdf));
+        if !w.is_finite() || w.max_element() <= 0.0 {
+            continue;
+        }
+        *un += w;
+        batch.push(ShadowRay::new(shadow_origin(g), wi, dist, pixel_slot, w));
+    }
 }
 
 /// `S_N / U_N` per channel, defined as 1 (fully lit) where `U_N` carries no
-/// energy: there the estimate has nothing to say about visibility, and the
-/// analytic `U` it multiplies is itself (near) zero.
+/// energy: no sample saw the light there, so the samples say nothing about
+/// its visibility, and the frame falls back to the analytic `U`.
 #[inline]
 pub fn ratio(sn: Vec3, un: Vec3) -> Vec3 {
     let r = |s: f32, u: f32| if u > 1e-20 { (s / u).clamp(0.0, 1.0) } else { 1.0 };

@@ -2,7 +2,8 @@
 //! per band of rows over rayon, then composite. Frame state that outlives a
 //! frame (previous camera, reference accumulation) lives here too.
 
-use super::estimate::analytic_u;
+use super::estimate::{Estimator, analytic_u, draw_samples, ratio};
+use super::shadow::{PacketWidth, ShadowBatch};
 use super::gbuffer::{GSample, PixelKind};
 use super::mode::Mode;
 use super::primary::{PACKET_H, PixelOffset, trace_rows};
@@ -23,16 +24,27 @@ pub struct RenderSettings {
     /// Light samples per pixel per frame (`reference`: per call).
     pub spp: u32,
     pub seed: u32,
+    /// How shadow rays are handed to Embree.
+    pub packet: PacketWidth,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
-            mode: Mode::Unshadowed,
+            mode: Mode::Ratio,
             spp: 1,
             seed: 0,
+            packet: PacketWidth::Sixteen,
         }
     }
+}
+
+/// Per-thread working memory, reused across bands.
+#[derive(Default)]
+struct BandScratch {
+    /// Analytic `U` of each light at each pixel of the band.
+    per_light: Vec<Vec3>,
+    batch: ShadowBatch,
 }
 
 /// Seconds spent in each stage of a frame. Stages run fused per band, so
@@ -130,7 +142,7 @@ impl Frame {
         let clock = PhaseClock::default();
         match settings.mode {
             Mode::Reference => self.render_reference(world, &cam, settings, &clock),
-            _ => self.render_direct(world, &cam, &prev, &clock),
+            _ => self.render_direct(world, &cam, &prev, settings, &clock),
         }
         self.prev_camera = Some(*camera);
         self.frame_index = self.frame_index.wrapping_add(1);
@@ -144,34 +156,131 @@ impl Frame {
         }
     }
 
-    fn render_direct(&mut self, world: &World, cam: &CameraFrame, prev: &CameraFrame, clock: &PhaseClock) {
+    fn render_direct(&mut self, world: &World, cam: &CameraFrame, prev: &CameraFrame, settings: &RenderSettings, clock: &PhaseClock) {
         let band = (BAND_ROWS * self.width) as usize;
+        let width = self.width;
+        let lights = world.scene.lights.len();
+        let estimator = match settings.mode {
+            Mode::Ratio | Mode::Stochastic => Some(Estimator::Mis),
+            Mode::SoftShadow => Some(Estimator::AreaVisibility),
+            Mode::Unshadowed | Mode::Reference => None,
+        };
+        let first_sample = self.frame_index.wrapping_mul(settings.spp);
         self.gbuf
             .par_chunks_mut(band)
             .zip(self.u.par_chunks_mut(band))
+            .zip(self.un.par_chunks_mut(band))
+            .zip(self.sn.par_chunks_mut(band))
             .zip(self.color.par_chunks_mut(band))
             .enumerate()
-            .for_each(|(b, ((gbuf, u), color))| {
+            .for_each_init(BandScratch::default, |scratch, (b, ((((gbuf, u), un), sn), color))| {
+                let y0 = b as u32 * BAND_ROWS;
                 let t = Instant::now();
-                trace_rows(world, cam, prev, b as u32 * BAND_ROWS, PixelOffset::Centre, gbuf);
+                trace_rows(world, cam, prev, y0, PixelOffset::Centre, gbuf);
                 let t = PhaseClock::add(&clock.primary, t);
-                for (g, u) in gbuf.iter().zip(u.iter_mut()) {
-                    *u = analytic_u(world, g);
+                scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
+                for (k, (g, u)) in gbuf.iter().zip(u.iter_mut()).enumerate() {
+                    *u = analytic_u(world, g, &mut scratch.per_light[k * lights..(k + 1) * lights]);
                 }
                 let t = PhaseClock::add(&clock.u, t);
-                for ((g, u), c) in gbuf.iter().zip(u.iter()).zip(color.iter_mut()) {
-                    *c = finite_or_zero(g.emission + *u);
+                un.fill(Vec3::ZERO);
+                sn.fill(Vec3::ZERO);
+                let t = if let Some(est) = estimator {
+                    scratch.batch.clear();
+                    for (k, g) in gbuf.iter().enumerate() {
+                        let pixel = y0 * width + k as u32;
+                        draw_samples(
+                            world,
+                            g,
+                            &scratch.per_light[k * lights..(k + 1) * lights],
+                            u[k],
+                            est,
+                            (pixel, first_sample, settings.seed),
+                            settings.spp,
+                            k as u32,
+                            &mut un[k],
+                            &mut scratch.batch,
+                        );
+                    }
+                    scratch.batch.trace(&world.rt, settings.packet, |r| sn[r.slot as usize] += r.weight);
+                    PhaseClock::add(&clock.shadow, t)
+                } else {
+                    t
+                };
+                for k in 0..gbuf.len() {
+                    let lit = match settings.mode {
+                        Mode::Unshadowed | Mode::Reference => u[k],
+                        Mode::Ratio | Mode::SoftShadow => u[k] * ratio(sn[k], un[k]),
+                        Mode::Stochastic => sn[k],
+                    };
+                    color[k] = finite_or_zero(gbuf[k].emission + lit);
                 }
                 PhaseClock::add(&clock.composite, t);
             });
     }
 
-    fn render_reference(&mut self, _world: &World, _cam: &CameraFrame, _settings: &RenderSettings, _clock: &PhaseClock) {
-        // Filled in with the stochastic estimators.
+    /// Adds `settings.spp` jittered samples of the full MIS estimator per
+    /// pixel to the running average.
+    fn render_reference(&mut self, world: &World, cam: &CameraFrame, settings: &RenderSettings, clock: &PhaseClock) {
         let n = self.pixel_count();
         if self.accum.len() != n {
             self.accum = vec![Vec3::ZERO; n];
+            self.accum_spp = 0;
         }
+        let band = (BAND_ROWS * self.width) as usize;
+        let width = self.width;
+        let lights = world.scene.lights.len();
+        let first = self.accum_spp;
+        self.gbuf
+            .par_chunks_mut(band)
+            .zip(self.u.par_chunks_mut(band))
+            .zip(self.un.par_chunks_mut(band))
+            .zip(self.sn.par_chunks_mut(band))
+            .zip(self.accum.par_chunks_mut(band))
+            .enumerate()
+            .for_each_init(BandScratch::default, |scratch, (b, ((((gbuf, u), un), sn), accum))| {
+                let y0 = b as u32 * BAND_ROWS;
+                scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
+                for s in 0..settings.spp {
+                    let index = first.wrapping_add(s);
+                    let t = Instant::now();
+                    let jitter = PixelOffset::Jitter { seed: settings.seed, sample: index };
+                    // The reference never reprojects: the camera is its own previous camera.
+                    trace_rows(world, cam, cam, y0, jitter, gbuf);
+                    let t = PhaseClock::add(&clock.primary, t);
+                    for (k, (g, u)) in gbuf.iter().zip(u.iter_mut()).enumerate() {
+                        *u = analytic_u(world, g, &mut scratch.per_light[k * lights..(k + 1) * lights]);
+                    }
+                    let t = PhaseClock::add(&clock.u, t);
+                    un.fill(Vec3::ZERO);
+                    sn.fill(Vec3::ZERO);
+                    scratch.batch.clear();
+                    for (k, g) in gbuf.iter().enumerate() {
+                        let pixel = y0 * width + k as u32;
+                        draw_samples(
+                            world,
+                            g,
+                            &scratch.per_light[k * lights..(k + 1) * lights],
+                            u[k],
+                            Estimator::Mis,
+                            (pixel, index, settings.seed),
+                            1,
+                            k as u32,
+                            &mut un[k],
+                            &mut scratch.batch,
+                        );
+                    }
+                    scratch.batch.trace(&world.rt, settings.packet, |r| sn[r.slot as usize] += r.weight);
+                    let t = PhaseClock::add(&clock.shadow, t);
+                    for k in 0..gbuf.len() {
+                        accum[k] += finite_or_zero(gbuf[k].emission + sn[k]);
+                    }
+                    PhaseClock::add(&clock.composite, t);
+                }
+            });
+        self.accum_spp += settings.spp;
+        let inv = 1.0 / self.accum_spp as f32;
+        self.color.par_iter_mut().zip(&self.accum).for_each(|(c, a)| *c = *a * inv);
     }
 
     /// Whether pixel `k` shows a receiver surface.

@@ -6,6 +6,7 @@ pub mod gbuffer;
 mod hash;
 pub mod mode;
 pub mod primary;
+pub mod shadow;
 pub mod world;
 
 pub use frame::{Frame, PhaseTimes, RenderSettings};

@@ -20,13 +20,13 @@ pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result
     writeln!(out, "scene {name}: {tris} triangles, {width}x{height}, {frames} frames per figure (median)")?;
     writeln!(out, "{:<12} {:>7} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9}", "mode", "threads", "ms/frame", "primary", "U", "shadow", "composite", "/ceiling")?;
     for t in [1usize, threads] {
-        let pool = embree::thread_pool(t);
+        let pool = embree::thread_pool(t)?;
         let ceiling = pool.install(|| {
             let runs: Vec<f64> = (0..frames).map(|_| primary_ray_time(&world, &camera, width, height)).collect();
             median(&runs)
         });
         for mode in Mode::ALL.into_iter().filter(|m| m.available() && *m != Mode::Reference) {
-            let settings = RenderSettings { mode, spp: 1, seed: 0 };
+            let settings = RenderSettings { mode, ..RenderSettings::default() };
             let mut frame = Frame::new(width, height);
             pool.install(|| frame.render(&world, &camera, &settings)); // warm-up
             let runs: Vec<_> = (0..frames).map(|_| pool.install(|| frame.render(&world, &camera, &settings))).collect();

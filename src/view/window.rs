@@ -47,11 +47,12 @@ pub fn run(opts: ViewOptions) -> Result<()> {
     let device = Device::new().context("starting Embree")?;
     let mut flyer = Flyer::from_camera(&scene.camera);
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
-    let pool = embree::thread_pool(opts.threads);
+    let pool = embree::thread_pool(opts.threads)?;
     let mut settings = RenderSettings {
         mode: if opts.mode.available() { opts.mode } else { Mode::Unshadowed },
         spp: opts.spp,
         seed: opts.seed,
+        ..RenderSettings::default()
     };
     let mut frame = Frame::new(w, h);
     let mut pixels = vec![0u32; frame.pixel_count()];

@@ -31,7 +31,7 @@ impl Default for Job {
         Job {
             width: 160,
             height: 90,
-            mode: Mode::Unshadowed,
+            mode: Mode::Ratio,
             spp: 1,
             frames: 1,
             threads: 1,
@@ -44,11 +44,12 @@ impl Default for Job {
 pub fn render(scene: &Scene, job: &Job) -> Frame {
     let device = Device::new().expect("Embree starts");
     let world = World::build(&device, scene.clone()).expect("scene builds");
-    let pool = embree::thread_pool(job.threads);
+    let pool = embree::thread_pool(job.threads).expect("thread pool");
     let settings = RenderSettings {
         mode: job.mode,
         spp: job.spp,
         seed: job.seed,
+        ..RenderSettings::default()
     };
     let mut frame = Frame::new(job.width, job.height);
     let camera = scene.camera;
