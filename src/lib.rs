@@ -3,4 +3,5 @@
 //! ratio of stochastic estimates).
 
 pub mod embree;
+pub mod sampling;
 pub mod scene;
