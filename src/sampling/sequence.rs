@@ -52,20 +52,54 @@ fn owen_scramble(x: u32, seed: u32) -> u32 {
     owen_reversed(x.reverse_bits(), seed).reverse_bits()
 }
 
-/// Sobol dimension 1 (the second one) as a 32-bit fraction. Its generator
-/// matrix is Pascal's triangle mod 2: each next column is `v ^ (v >> 1)`.
-#[inline]
-fn sobol_dim1(mut i: u32) -> u32 {
+/// Generator-matrix columns of Sobol dimension 1 (the second one): Pascal's
+/// triangle mod 2, each next column `v ^ (v >> 1)`.
+const fn sobol1_columns() -> [u32; 32] {
+    let mut c = [0u32; 32];
     let mut v = 1u32 << 31;
-    let mut r = 0u32;
-    while i != 0 {
-        if i & 1 != 0 {
-            r ^= v;
-        }
-        i >>= 1;
+    let mut k = 0;
+    while k < 32 {
+        c[k] = v;
         v ^= v >> 1;
+        k += 1;
     }
-    r
+    c
+}
+
+/// The matrix–vector product by bytes: entry [k][b] is the XOR of the columns
+/// 8k..8k+8 selected by byte value b. Four lookups instead of a 32-step loop
+/// (shuffled indices use all 32 bits).
+const SOBOL1_BYTES: [[u32; 256]; 4] = {
+    let cols = sobol1_columns();
+    let mut t = [[0u32; 256]; 4];
+    let mut k = 0;
+    while k < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let mut r = 0u32;
+            let mut bit = 0;
+            while bit < 8 {
+                if b & (1 << bit) != 0 {
+                    r ^= cols[8 * k + bit];
+                }
+                bit += 1;
+            }
+            t[k][b] = r;
+            b += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
+/// Sobol dimension 1 of index `i` as a 32-bit fraction.
+#[inline]
+fn sobol_dim1(i: u32) -> u32 {
+    let b = i.to_le_bytes();
+    SOBOL1_BYTES[0][b[0] as usize]
+        ^ SOBOL1_BYTES[1][b[1] as usize]
+        ^ SOBOL1_BYTES[2][b[2] as usize]
+        ^ SOBOL1_BYTES[3][b[3] as usize]
 }
 
 /// Top 24 bits to a float in [0, 1): exact, and never rounds up to 1.
