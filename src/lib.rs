@@ -9,6 +9,7 @@ pub mod embree;
 pub mod output;
 pub mod render;
 pub mod report;
+pub mod sampling;
 pub mod scene;
 pub mod shading;
 pub mod view;

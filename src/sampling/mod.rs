@@ -1,0 +1,23 @@
+//! Sampling math for the stochastic estimators `U_N` and `S_N`: low-discrepancy
+//! sequences, solid-angle sampling of polygonal lights, GGX visible-normal and
+//! cosine sampling of the BRDF, and MIS weights. Pure functions, no ray tracing;
+//! the renderer combines them.
+
+pub mod brdf_sample;
+mod ggx;
+pub mod light;
+pub mod mis;
+pub mod sequence;
+pub mod spherical_rect;
+pub mod spherical_tri;
+
+pub use brdf_sample::{
+    BrdfSample, brdf_pdf, cosine_hemisphere, onb, sample_brdf, spec_lobe_probability, vndf_pdf,
+    vndf_sample,
+};
+pub use light::{
+    LightSample, SOLID_ANGLE_AREA_FALLBACK, intersect_light, light_pdf, sample_light,
+    sample_light_area_uniform,
+};
+pub use mis::{balance_heuristic, power_heuristic};
+pub use sequence::{Pcg32, hash_u32, sample_1d, sample_2d};

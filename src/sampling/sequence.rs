@@ -1,0 +1,180 @@
+//! Sample points for the per-pixel estimators.
+//!
+//! 2D points are the first two Sobol dimensions, a (0,2)-sequence in base 2:
+//! every power-of-two prefix of 2^m points puts exactly one point in each
+//! elementary interval of area 2^-m (so 16 points fill a 4×4 grid). Each
+//! (pixel, dimension, seed) gets its own Owen scramble (keeps the net
+//! property, removes the structure shared between pixels) and its own index
+//! shuffle (a nested scramble of the index, which permutes aligned power-of-two
+//! blocks, so prefixes stay nets while different dimensions stop being
+//! correlated). Owen scrambling uses the hash-based approach of Burley 2020,
+//! "Practical Hash-based Owen Scrambling". Frames decorrelate through `seed`
+//! (mix the frame number into it, e.g. `hash_u32(frame ^ global_seed)`).
+
+use glam::Vec2;
+
+/// A strong 32-bit integer hash (the "lowbias32" mixer, bias ~0.17): full
+/// avalanche, so neighbouring pixel indices give unrelated seeds.
+#[inline]
+pub fn hash_u32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    x
+}
+
+/// Combines keys into one seed; order matters (not symmetric) because each
+/// step hashes the running value before mixing in the next key.
+#[inline]
+fn hash_combine(a: u32, b: u32) -> u32 {
+    hash_u32(a ^ b.wrapping_mul(0x9e37_79b9).wrapping_add(0x632b_e5ab))
+}
+
+/// A scramble in which each output bit (from the most significant) depends
+/// only on the input bits above it: that is exactly what keeps nets nets. It
+/// operates on bit-reversed values, where "above" becomes "below", which is
+/// what multiplication by even constants and adding a seed propagate towards.
+#[inline]
+fn owen_reversed(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// Owen scramble of a 32-bit binary fraction.
+#[inline]
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    owen_reversed(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// Generator-matrix columns of Sobol dimension 1 (the second one): Pascal's
+/// triangle mod 2, each next column `v ^ (v >> 1)`.
+const fn sobol1_columns() -> [u32; 32] {
+    let mut c = [0u32; 32];
+    let mut v = 1u32 << 31;
+    let mut k = 0;
+    while k < 32 {
+        c[k] = v;
+        v ^= v >> 1;
+        k += 1;
+    }
+    c
+}
+
+/// The matrix–vector product by bytes: entry [k][b] is the XOR of the columns
+/// 8k..8k+8 selected by byte value b. Four lookups instead of a 32-step loop
+/// (shuffled indices use all 32 bits).
+const SOBOL1_BYTES: [[u32; 256]; 4] = {
+    let cols = sobol1_columns();
+    let mut t = [[0u32; 256]; 4];
+    let mut k = 0;
+    while k < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let mut r = 0u32;
+            let mut bit = 0;
+            while bit < 8 {
+                if b & (1 << bit) != 0 {
+                    r ^= cols[8 * k + bit];
+                }
+                bit += 1;
+            }
+            t[k][b] = r;
+            b += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
+/// Sobol dimension 1 of index `i` as a 32-bit fraction.
+#[inline]
+fn sobol_dim1(i: u32) -> u32 {
+    let b = i.to_le_bytes();
+    SOBOL1_BYTES[0][b[0] as usize]
+        ^ SOBOL1_BYTES[1][b[1] as usize]
+        ^ SOBOL1_BYTES[2][b[2] as usize]
+        ^ SOBOL1_BYTES[3][b[3] as usize]
+}
+
+/// Top 24 bits to a float in [0, 1): exact, and never rounds up to 1.
+#[inline]
+fn to_unit(x: u32) -> f32 {
+    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Independent 32-bit seeds for one (pixel, dimension, seed) stream.
+#[inline]
+fn stream_seed(pixel_index: u32, dimension: u32, seed: u32) -> u32 {
+    hash_combine(hash_combine(hash_u32(seed), dimension), pixel_index)
+}
+
+/// The `sample_index`-th 2D point of the stream (pixel, dimension, seed), in
+/// [0,1)². Prefixes of 2^m points are (0,m,2)-nets.
+#[inline]
+pub fn sample_2d(pixel_index: u32, sample_index: u32, dimension: u32, seed: u32) -> Vec2 {
+    let s = stream_seed(pixel_index, dimension, seed);
+    let i = owen_scramble(sample_index, s);
+    let x = owen_scramble(i.reverse_bits(), hash_u32(s ^ 0x5851_f42d));
+    let y = owen_scramble(sobol_dim1(i), hash_u32(s ^ 0x4c95_7f2d));
+    Vec2::new(to_unit(x), to_unit(y))
+}
+
+/// The `sample_index`-th 1D value of the stream, in [0,1): a scrambled,
+/// shuffled van der Corput sequence, so 2^m prefixes fill 2^m strata.
+#[inline]
+pub fn sample_1d(pixel_index: u32, sample_index: u32, dimension: u32, seed: u32) -> f32 {
+    // A distinct key space from the 2D streams so a 1D and a 2D dimension with
+    // the same number are not the same scrambled points.
+    let s = stream_seed(pixel_index, dimension ^ 0x8000_0000, seed);
+    let i = owen_scramble(sample_index, s);
+    to_unit(owen_scramble(i.reverse_bits(), hash_u32(s ^ 0x5851_f42d)))
+}
+
+/// PCG32 (O'Neill 2014, XSH-RR output): a small fast RNG for anything that
+/// needs plain independent random numbers (tests, jitter, tie-breaking).
+#[derive(Debug, Clone)]
+pub struct Pcg32 {
+    state: u64,
+    inc: u64,
+}
+
+impl Pcg32 {
+    const MULT: u64 = 6_364_136_223_846_793_005;
+
+    /// A generator for `seed` on stream `stream` (distinct streams do not overlap).
+    pub fn new(seed: u64, stream: u64) -> Pcg32 {
+        let mut r = Pcg32 {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
+        r.next_u32();
+        r.state = r.state.wrapping_add(seed);
+        r.next_u32();
+        r
+    }
+
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old.wrapping_mul(Self::MULT).wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn next_f32(&mut self) -> f32 {
+        to_unit(self.next_u32())
+    }
+
+    /// Uniform in [0, 1)².
+    pub fn next_vec2(&mut self) -> Vec2 {
+        let x = self.next_f32();
+        Vec2::new(x, self.next_f32())
+    }
+}

@@ -1,0 +1,72 @@
+//! Spherical triangles: a robust solid angle and uniform solid-angle sampling
+//! (Arvo 1995, "Stratified Sampling of Spherical Triangles").
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Solid angle subtended at the origin by the triangle with corners `a`, `b`,
+/// `c` (positions relative to the viewpoint, any length), by Van Oosterom &
+/// Strackee 1983: tan(Ω/2) = |a·(b×c)| / (|a||b||c| + (a·b)|c| + (a·c)|b| + (b·c)|a|).
+/// The triple product is formed from the edges, a·((b−a)×(c−a)), which is the
+/// same number without the cancellation of crossing two nearly parallel long
+/// vectors: that keeps tiny, distant triangles accurate. The denominator
+/// cancels to ~0 for triangles of ~π sr (a huge light seen from just off its
+/// plane); f32 loses several percent there, so the arithmetic is f64 (as fast
+/// as f32 for a handful of scalar operations).
+pub fn solid_angle(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let triple = a.dot((b - a).cross(c - a)).abs();
+    let (la, lb, lc) = (a.length(), b.length(), c.length());
+    let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+    let omega = (2.0 * triple.atan2(den)) as f32;
+    if omega.is_finite() { omega } else { 0.0 }
+}
+
+/// Angle between two vectors, accurate near 0 and π (unlike acos of the dot).
+#[inline]
+fn angle_between(x: Vec3, y: Vec3) -> f32 {
+    x.cross(y).length().atan2(x.dot(y))
+}
+
+/// Unit component of `v` orthogonal to unit `axis`; any orthogonal unit
+/// vector when `v` is parallel to it (only reached by degenerate triangles).
+#[inline]
+fn orthogonal_unit(v: Vec3, axis: Vec3) -> Vec3 {
+    (v - axis * v.dot(axis))
+        .try_normalize()
+        .unwrap_or_else(|| axis.any_orthonormal_vector())
+}
+
+/// A direction uniformly distributed in solid angle over the spherical
+/// triangle with unit corners `a`, `b`, `c`, whose solid angle is `omega`
+/// (pass `solid_angle` of the same triangle). `u` in [0,1)²: `u.x` sweeps the
+/// area from edge `ab` (as a sub-triangle a-b-c'), `u.y` moves along the arc
+/// from `b` to the sub-triangle's new corner c', so strata in `u` stay strata
+/// on the sphere.
+pub fn sample(a: Vec3, b: Vec3, c: Vec3, omega: f32, u: Vec2) -> Vec3 {
+    // Interior angle at a: between the great circles a–b and a–c.
+    let alpha = angle_between(a.cross(b), a.cross(c));
+    let (sin_alpha, cos_alpha) = alpha.sin_cos();
+    let cos_c = a.dot(b); // cosine of the arc length a–b
+
+    // Step 1: the corner c' on arc a–c such that triangle a-b-c' has area u.x·Ω.
+    let area = u.x * omega;
+    let (s, t) = (area - alpha).sin_cos();
+    let uu = t - cos_alpha;
+    let vv = s + sin_alpha * cos_c;
+    let den = (vv * s + uu * t) * sin_alpha;
+    let q = if den != 0.0 {
+        (((vv * t - uu * s) * cos_alpha - vv) / den).clamp(-1.0, 1.0)
+    } else {
+        1.0
+    };
+    let c_new = q * a + (1.0 - q * q).max(0.0).sqrt() * orthogonal_unit(c, a);
+
+    // Step 2: a point on arc b–c' with cos(angle from b) uniform in the cap sense.
+    let z = (1.0 - u.y * (1.0 - c_new.dot(b))).clamp(-1.0, 1.0);
+    let dir = z * b + (1.0 - z * z).max(0.0).sqrt() * orthogonal_unit(c_new, b);
+    dir.normalize()
+}
+
+/// Solid angle of the full sphere, the upper bound for any light.
+pub const FULL_SPHERE: f32 = 4.0 * PI;
