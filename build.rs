@@ -35,10 +35,10 @@ fn find() -> Option<Found> {
         let dir = PathBuf::from(dir);
         for lib in ["lib", "lib64"] {
             let lib_dir = dir.join(lib);
-            if lib_dir.is_dir() {
-                if let Some(f) = find_in(&dir.join("include"), Some(lib_dir)) {
-                    return Some(f);
-                }
+            if lib_dir.is_dir()
+                && let Some(f) = find_in(&dir.join("include"), Some(lib_dir))
+            {
+                return Some(f);
             }
         }
         if let Some(f) = find_in(&dir.join("include"), None) {
