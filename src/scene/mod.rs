@@ -4,6 +4,8 @@
 
 mod camera;
 mod error;
+mod fields;
+mod lights;
 mod obj;
 mod parse;
 mod shapes;
@@ -11,7 +13,7 @@ mod texture;
 
 pub use camera::{Camera, CameraFrame};
 pub use error::SceneError;
-pub use texture::Texture;
+pub use texture::{Encoding, Texture};
 
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};

@@ -1,8 +1,136 @@
-//! (in progress)
+//! Image textures: loading (PNG or EXR, detected from the file's contents)
+//! and bilinear sampling.
+//!
+//! Conventions:
+//! - `texels` are stored row by row with row 0 the TOP row of the image, as
+//!   image files store them.
+//! - Texture coordinates follow OpenGL: (s, t) = (0, 0) is the BOTTOM-left
+//!   corner of the image and t grows upwards, so t = 1 is the top row. This
+//!   matches OBJ `vt` coordinates and the quad convention (t along v).
+//! - Addressing wraps (repeat) in both directions; filtering is bilinear
+//!   between texel centres.
+
+use glam::Vec2;
+use std::path::Path;
+
 /// An image in linear floating point, RGBA, row 0 at the top.
 #[derive(Debug, Clone)]
 pub struct Texture {
     pub width: u32,
     pub height: u32,
     pub texels: Vec<[f32; 4]>,
+}
+
+/// How a file's values are turned into linear floats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Encoding {
+    /// 8/16-bit images are sRGB-encoded colour (decoded to linear). Float
+    /// images (EXR) are taken as already linear.
+    Srgb,
+    /// Values are used as stored, scaled to [0, 1] (roughness, normal maps).
+    Linear,
+}
+
+/// Largest accepted image side; keeps a hostile header from asking for an
+/// absurd allocation.
+const MAX_SIDE: u32 = 16384;
+
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+impl Texture {
+    /// Loads an image; the error is a sentence without the path (the caller
+    /// adds it).
+    pub fn load(path: &Path, encoding: Encoding) -> Result<Texture, String> {
+        let reader = image::ImageReader::open(path)
+            .map_err(|e| format!("cannot open {}: {e}", path.display()))?
+            .with_guessed_format()
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        if reader.format().is_none() {
+            return Err(format!(
+                "{} is not a supported image (PNG or EXR)",
+                path.display()
+            ));
+        }
+        let img = reader
+            .decode()
+            .map_err(|e| format!("cannot decode {}: {e}", path.display()))?;
+        let (width, height) = (img.width(), img.height());
+        if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
+            return Err(format!(
+                "{} is {width}x{height}; each side must be in 1..={MAX_SIDE}",
+                path.display()
+            ));
+        }
+        let is_float = matches!(
+            img.color(),
+            image::ColorType::Rgb32F | image::ColorType::Rgba32F
+        );
+        let rgba = img.into_rgba32f();
+        let decode = encoding == Encoding::Srgb && !is_float;
+        let mut texels = Vec::with_capacity(width as usize * height as usize);
+        for (i, px) in rgba.pixels().enumerate() {
+            let mut t = px.0;
+            if decode {
+                for c in &mut t[..3] {
+                    *c = srgb_to_linear(*c);
+                }
+            }
+            if let Some(c) = t[..3].iter().find(|c| !(0.0..=1.0).contains(*c)) {
+                return Err(format!(
+                    "{}: texel ({}, {}) has value {c}, outside [0, 1]",
+                    path.display(),
+                    i % width as usize,
+                    i / width as usize
+                ));
+            }
+            texels.push(t);
+        }
+        Ok(Texture {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    fn texel(&self, x: i64, y: i64) -> [f32; 4] {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let idx = (y.rem_euclid(h) * w + x.rem_euclid(w)) as usize;
+        self.texels.get(idx).copied().unwrap_or([0.0; 4])
+    }
+
+    /// Bilinear sample at (s, t) with repeat addressing; (0, 0) is the
+    /// bottom-left corner of the image (see the module notes). Returns zeros
+    /// for an empty texture or non-finite coordinates.
+    pub fn sample(&self, uv: Vec2) -> [f32; 4] {
+        if self.width == 0 || self.height == 0 || !uv.is_finite() {
+            return [0.0; 4];
+        }
+        // Continuous texel coordinates with texel centres at integers + 0.5;
+        // y counts rows from the top, hence 1 - t. fract keeps the numbers
+        // small so huge repeat counts do not lose precision.
+        let s = uv.x - uv.x.floor();
+        let t = uv.y - uv.y.floor();
+        let x = s * self.width as f32 - 0.5;
+        let y = (1.0 - t) * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let a = self.texel(x0, y0);
+        let b = self.texel(x0 + 1, y0);
+        let c = self.texel(x0, y0 + 1);
+        let d = self.texel(x0 + 1, y0 + 1);
+        let mut out = [0.0; 4];
+        for k in 0..4 {
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bottom = c[k] + (d[k] - c[k]) * fx;
+            out[k] = top + (bottom - top) * fy;
+        }
+        out
+    }
 }

@@ -1,0 +1,103 @@
+//! Generates the small procedural textures used by `scenes/room.toml`:
+//!
+//! ```text
+//! cargo run --release --example make_textures   # writes scenes/textures/*.png
+//! ```
+//!
+//! A 4x4 tile floor, 256x256 each:
+//! - `tiles_diffuse.png`  sRGB colour: two alternating stone tones, dark grout.
+//! - `tiles_roughness.png` linear grey: polished tiles (0.15 / 0.45), rough grout (0.9),
+//!   with a low-frequency smudge so highlights vary within a tile.
+//! - `tiles_normal.png`   tangent-space normals, +Y up (OpenGL): grooves at the grout
+//!   lines and a gentle bevel, from finite differences of a height field.
+//!
+//! Deterministic (no random numbers), so regenerating gives identical files.
+
+use image::{GrayImage, Luma, Rgb, RgbImage};
+use std::path::Path;
+
+const N: u32 = 256;
+const TILES: f32 = 4.0;
+/// Grout half-width, in tile units.
+const GROUT: f32 = 0.04;
+
+/// Distance (tile units) from (x, y) in texture units to the nearest grout line,
+/// and the tile's integer coordinates.
+fn tile(x: f32, y: f32) -> (f32, i32, i32) {
+    let (tx, ty) = (x * TILES, y * TILES);
+    let (fx, fy) = (tx.fract(), ty.fract());
+    let d = fx.min(1.0 - fx).min(fy.min(1.0 - fy));
+    (d, tx.floor() as i32, ty.floor() as i32)
+}
+
+fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Height in [0, 1]: 0 in the grout, rising over a bevel to 1 on the tile top.
+fn height(x: f32, y: f32) -> f32 {
+    let (d, _, _) = tile(x.rem_euclid(1.0), y.rem_euclid(1.0));
+    smoothstep(GROUT, GROUT + 0.06, d)
+}
+
+/// Texel centre in texture units, row 0 at the top (t = 1 - row).
+fn uv(i: u32, j: u32) -> (f32, f32) {
+    (
+        (i as f32 + 0.5) / N as f32,
+        1.0 - (j as f32 + 0.5) / N as f32,
+    )
+}
+
+fn main() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/textures");
+    std::fs::create_dir_all(&dir).expect("create scenes/textures");
+
+    let diffuse = RgbImage::from_fn(N, N, |i, j| {
+        let (s, t) = uv(i, j);
+        let (d, tx, ty) = tile(s, t);
+        if d < GROUT {
+            Rgb([70, 66, 60])
+        } else if (tx + ty) % 2 == 0 {
+            Rgb([200, 190, 170])
+        } else {
+            Rgb([150, 120, 95])
+        }
+    });
+    diffuse
+        .save(dir.join("tiles_diffuse.png"))
+        .expect("write diffuse");
+
+    let roughness = GrayImage::from_fn(N, N, |i, j| {
+        let (s, t) = uv(i, j);
+        let (d, tx, ty) = tile(s, t);
+        let r = if d < GROUT {
+            0.9
+        } else {
+            let base = if (tx + ty) % 2 == 0 { 0.15 } else { 0.45 };
+            let smudge = 0.1 * (s * 9.0).sin() * (t * 7.0).cos();
+            base + smudge
+        };
+        Luma([(r.clamp(0.0, 1.0) * 255.0).round() as u8])
+    });
+    roughness
+        .save(dir.join("tiles_roughness.png"))
+        .expect("write roughness");
+
+    // Slope scale: height units per texture unit; larger = deeper grooves.
+    let depth = 0.02;
+    let h = 1.0 / N as f32;
+    let normal = RgbImage::from_fn(N, N, |i, j| {
+        let (s, t) = uv(i, j);
+        let dhds = (height(s + h, t) - height(s - h, t)) / (2.0 * h) * depth;
+        let dhdt = (height(s, t + h) - height(s, t - h)) / (2.0 * h) * depth;
+        let (nx, ny, nz) = (-dhds, -dhdt, 1.0f32);
+        let len = (nx * nx + ny * ny + nz * nz).sqrt();
+        let enc = |c: f32| ((c / len * 0.5 + 0.5) * 255.0).round() as u8;
+        Rgb([enc(nx), enc(ny), enc(nz)])
+    });
+    normal
+        .save(dir.join("tiles_normal.png"))
+        .expect("write normal");
+    println!("wrote {}", dir.display());
+}
