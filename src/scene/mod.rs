@@ -109,3 +109,23 @@ impl Scene {
         self.meshes.iter().map(|m| m.indices.len()).sum()
     }
 }
+
+/// The same size limits the `[output]` table obeys, for sizes given on the
+/// command line.
+pub fn check_resolution(width: u32, height: u32) -> Result<(), String> {
+    let (w, h) = (width as i64, height as i64);
+    if !(1..=parse::MAX_SIDE).contains(&w) || !(1..=parse::MAX_SIDE).contains(&h) {
+        return Err(format!(
+            "resolution {width}x{height}: each side must be in 1..={}",
+            parse::MAX_SIDE
+        ));
+    }
+    if w * h > parse::MAX_PIXELS {
+        return Err(format!(
+            "resolution {width}x{height} = {} pixels exceeds the limit of {} (64 Mpixel)",
+            w * h,
+            parse::MAX_PIXELS
+        ));
+    }
+    Ok(())
+}
