@@ -70,3 +70,23 @@ pub fn color_bytes(frame: &Frame) -> Vec<u8> {
         .flat_map(f32::to_le_bytes)
         .collect()
 }
+
+/// relMSE of `x` against `reference` over the pixels where `mask` holds.
+pub fn rel_mse_where(x: &Frame, reference: &Frame, mask: impl Fn(usize) -> bool) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for k in 0..x.pixel_count() {
+        if !mask(k) {
+            continue;
+        }
+        for c in 0..3 {
+            let (a, r) = (x.color[k][c] as f64, reference.color[k][c] as f64);
+            sum += (a - r) * (a - r) / (r * r + 1e-2);
+        }
+        n += 3;
+    }
+    sum / n.max(1) as f64
+}
+
+pub fn rel_mse(x: &Frame, reference: &Frame) -> f64 {
+    penumbra::report::stats::rel_mse(&x.color, &reference.color)
+}

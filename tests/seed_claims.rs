@@ -1,0 +1,128 @@
+//! The seed paper's claims, stated as tests: the ratio estimator is
+//! consistent, noise-free where lit, right on glossy receivers where a plain
+//! soft-shadow answer is wrong, and less noisy than full Monte Carlo.
+mod common;
+
+use common::{Job, load, rel_mse, rel_mse_where, render};
+use penumbra::render::{Mode, PixelKind};
+
+const W: u32 = 128;
+const H: u32 = 72;
+
+fn job(mode: Mode, spp: u32, seed: u32) -> Job {
+    Job {
+        width: W,
+        height: H,
+        mode,
+        spp,
+        seed,
+        threads: 2,
+        ..Job::default()
+    }
+}
+
+#[test]
+fn reference_converges_two_seeds_agree() {
+    let scene = load("shadow-plane.toml");
+    let a = render(&scene, &job(Mode::Reference, 1024, 1));
+    let b = render(&scene, &job(Mode::Reference, 1024, 2));
+    let e = rel_mse(&a, &b);
+    println!("reference seed 1 vs seed 2 at 1024 spp: relMSE {e:.2e}");
+    assert!(e < 2e-4, "relMSE {e}");
+}
+
+#[test]
+fn undenoised_ratio_converges_to_reference() {
+    let scene = load("shadow-plane.toml");
+    let reference = render(&scene, &job(Mode::Reference, 2048, 7));
+    let mut points = Vec::new();
+    for spp in [1u32, 4, 16, 64, 256] {
+        let e = rel_mse(&render(&scene, &job(Mode::Ratio, spp, 3)), &reference);
+        println!("ratio {spp:>3} spp: relMSE {e:.3e}");
+        points.push(((spp as f64).ln(), e.ln()));
+    }
+    // Least-squares slope of log(relMSE) against log(spp) over 1..64 spp,
+    // where noise dominates the (LTC and pixel-filter) bias.
+    let fit = &points[..4];
+    let (mx, my) = (
+        fit.iter().map(|p| p.0).sum::<f64>() / 4.0,
+        fit.iter().map(|p| p.1).sum::<f64>() / 4.0,
+    );
+    let slope = fit.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
+        / fit.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>();
+    println!("slope of log relMSE vs log spp (1..64): {slope:.2}");
+    assert!(slope < -0.7, "relMSE does not fall with spp: slope {slope}");
+    let at256 = points[4].1.exp();
+    assert!(at256 < 2e-3, "relMSE at 256 spp: {at256}");
+}
+
+#[test]
+fn ratio_equals_unshadowed_without_occluders() {
+    let mut scene = load("shadow-plane.toml");
+    // Drop the occluder bar; the three receivers cannot shadow each other.
+    scene.meshes.retain(|m| scene.materials[m.material as usize].name != "occluder");
+    let ratio = render(&scene, &job(Mode::Ratio, 1, 0));
+    let unshadowed = render(&scene, &job(Mode::Unshadowed, 1, 0));
+    assert_eq!(common::color_bytes(&ratio), common::color_bytes(&unshadowed));
+}
+
+#[test]
+fn ratio_is_exactly_u_where_every_sample_is_unoccluded() {
+    let scene = load("shadow-plane.toml");
+    let f = render(&scene, &job(Mode::Ratio, 4, 0));
+    let mut lit = 0;
+    for k in 0..f.pixel_count() {
+        if f.gbuf[k].kind == PixelKind::Surface && f.sn[k] == f.un[k] {
+            assert_eq!(f.color[k], f.u[k], "pixel {k}");
+            lit += 1;
+        }
+    }
+    assert!(lit > f.pixel_count() / 4, "only {lit} fully lit pixels");
+}
+
+#[test]
+fn soft_shadow_is_wrong_on_glossy_receivers_and_ratio_is_not() {
+    let scene = load("shadow-plane.toml");
+    let reference = render(&scene, &job(Mode::Reference, 2048, 11));
+    let ratio = render(&scene, &job(Mode::Ratio, 256, 5));
+    let soft = render(&scene, &job(Mode::SoftShadow, 256, 5));
+    let material = |name: &str| scene.materials.iter().position(|m| m.name == name).unwrap() as u32;
+    for (name, glossy) in [("diffuse", false), ("glossy", true), ("mirror", true)] {
+        let id = material(name);
+        let on = |k: usize| reference.gbuf[k].kind == PixelKind::Surface && reference.gbuf[k].material == id;
+        let e_ratio = rel_mse_where(&ratio, &reference, on);
+        let e_soft = rel_mse_where(&soft, &reference, on);
+        println!("{name:>8}: relMSE ratio {e_ratio:.2e}, soft-shadow {e_soft:.2e}");
+        if glossy {
+            assert!(e_soft > 5.0 * e_ratio, "{name}: soft-shadow {e_soft} vs ratio {e_ratio}");
+        } else {
+            assert!(e_ratio < 2e-3 && e_soft < 5e-3, "{name}: ratio {e_ratio}, soft-shadow {e_soft}");
+        }
+    }
+}
+
+#[test]
+fn at_one_spp_ratio_beats_stochastic_on_room() {
+    let scene = load("room.toml");
+    let reference = render(&scene, &job(Mode::Reference, 512, 13));
+    let ratio = rel_mse(&render(&scene, &job(Mode::Ratio, 1, 1)), &reference);
+    let stochastic = rel_mse(&render(&scene, &job(Mode::Stochastic, 1, 1)), &reference);
+    println!("room, 1 spp, undenoised: relMSE ratio {ratio:.3e}, stochastic {stochastic:.3e}");
+    assert!(ratio < stochastic, "ratio {ratio} vs stochastic {stochastic}");
+}
+
+#[test]
+fn no_aov_has_nan_or_inf_on_any_shipped_scene() {
+    use penumbra::output::Aov;
+    for name in ["default.toml", "shadow-plane.toml", "room.toml", "many-tris.toml"] {
+        let scene = load(name);
+        for mode in Mode::ALL {
+            let f = render(&scene, &job(mode, 2, 0));
+            assert!(f.color.iter().all(|c| c.is_finite()), "{name} {mode}: colour");
+            for aov in Aov::ALL {
+                let values = aov.values(&f);
+                assert!(values.iter().all(|v| v.is_finite()), "{name} {mode}: {}", aov.name());
+            }
+        }
+    }
+}
