@@ -4,3 +4,4 @@
 
 pub mod embree;
 pub mod scene;
+pub mod shading;
