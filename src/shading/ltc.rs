@@ -1,0 +1,207 @@
+//! The LTC table: storage, (de)serialisation, the embedded copy and bilinear
+//! lookup. The table is produced by `ltc_fit` (see there for how to
+//! regenerate `data/ltc_64.bin`).
+//!
+//! Convention. In the shading frame (z = normal, x = the view's tangential
+//! direction, so the view is `(sin θv, 0, cos θv)`), the GGX lobe
+//! `f_spec(F=1) * cos` is approximated by `mag * D(w) / hmass` on the upper
+//! hemisphere, where `D` is a clamped cosine transformed by a matrix `M`.
+//! A cell stores `M^-1 = [[m00, 0, m02], [0, 1, 0], [m20, 0, m22]]`
+//! (normalised so the middle element is 1: the LTC is scale invariant),
+//! `mag = ∫ f_spec(F=1) cos`, `fres = ∫ f_spec(F=1) cos (1 - wo.h)^5` (so the
+//! specular integral is `(F0 mag + (1 - F0) fres) * ∫_P D / hmass`), `hmass`,
+//! the mass of `D` above the horizon (the BRDF is zero below it, so we clip
+//! there and renormalise), and `err`, the fit's relative L1 error
+//! `∫ |f cos - mag D/hmass| / mag` (diagnostic only).
+
+use glam::DMat3;
+use std::sync::OnceLock;
+
+/// Values per cell, in this order.
+pub const FIELDS: usize = 8;
+const MAGIC: &[u8; 4] = b"PLTC";
+const VERSION: u32 = 1;
+
+/// One table cell (or an interpolation of four).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LtcCell {
+    pub m00: f32,
+    pub m02: f32,
+    pub m20: f32,
+    pub m22: f32,
+    pub mag: f32,
+    pub fres: f32,
+    pub hmass: f32,
+    pub err: f32,
+}
+
+impl LtcCell {
+    pub fn to_array(&self) -> [f32; FIELDS] {
+        [
+            self.m00, self.m02, self.m20, self.m22, self.mag, self.fres, self.hmass, self.err,
+        ]
+    }
+
+    pub fn from_array(a: [f32; FIELDS]) -> LtcCell {
+        LtcCell {
+            m00: a[0],
+            m02: a[1],
+            m20: a[2],
+            m22: a[3],
+            mag: a[4],
+            fres: a[5],
+            hmass: a[6],
+            err: a[7],
+        }
+    }
+
+    /// `M^-1` as a matrix (column-major, as glam stores it).
+    pub fn inv_matrix(&self) -> DMat3 {
+        DMat3::from_cols_array(&[
+            self.m00 as f64,
+            0.0,
+            self.m20 as f64,
+            0.0,
+            1.0,
+            0.0,
+            self.m02 as f64,
+            0.0,
+            self.m22 as f64,
+        ])
+    }
+}
+
+/// A `size x size` table over roughness (column index `i`, roughness
+/// `i / (size - 1)`) and `sqrt(1 - cos θv)` (row index `j`, value
+/// `j / (size - 1)`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LtcTable {
+    pub size: usize,
+    /// Row-major: `cells[j * size + i]`.
+    pub cells: Vec<LtcCell>,
+}
+
+impl LtcTable {
+    pub fn cell(&self, i_rough: usize, j_view: usize) -> &LtcCell {
+        &self.cells[j_view * self.size + i_rough]
+    }
+
+    /// Roughness of column `i`.
+    pub fn roughness_at(size: usize, i: usize) -> f32 {
+        i as f32 / (size - 1) as f32
+    }
+
+    /// cos θv of row `j`.
+    pub fn cos_view_at(size: usize, j: usize) -> f32 {
+        let u = j as f32 / (size - 1) as f32;
+        1.0 - u * u
+    }
+
+    /// Little-endian: "PLTC", version, size, fields, then `f32` cells.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(16 + self.cells.len() * FIELDS * 4);
+        out.extend_from_slice(MAGIC);
+        for w in [VERSION, self.size as u32, FIELDS as u32] {
+            out.extend_from_slice(&w.to_le_bytes());
+        }
+        for c in &self.cells {
+            for v in c.to_array() {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        out
+    }
+
+    pub fn from_bytes(bytes: &[u8]) -> Result<LtcTable, String> {
+        let word = |k: usize| -> Result<u32, String> {
+            let b = bytes
+                .get(4 + 4 * k..8 + 4 * k)
+                .ok_or("LTC table: truncated header")?;
+            Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        };
+        if bytes.get(..4) != Some(MAGIC.as_slice()) {
+            return Err("LTC table: bad magic (expected PLTC)".into());
+        }
+        let (version, size, fields) = (word(0)?, word(1)? as usize, word(2)? as usize);
+        if version != VERSION || fields != FIELDS || size < 2 {
+            return Err(format!(
+                "LTC table: unsupported version {version}, size {size}, fields {fields}"
+            ));
+        }
+        let body = &bytes[16..];
+        if body.len() != size * size * FIELDS * 4 {
+            return Err(format!(
+                "LTC table: {} data bytes, expected {}",
+                body.len(),
+                size * size * FIELDS * 4
+            ));
+        }
+        let cells = body
+            .chunks_exact(FIELDS * 4)
+            .map(|c| {
+                let mut a = [0.0f32; FIELDS];
+                for (k, v) in a.iter_mut().enumerate() {
+                    v.clone_from(&f32::from_le_bytes([
+                        c[4 * k],
+                        c[4 * k + 1],
+                        c[4 * k + 2],
+                        c[4 * k + 3],
+                    ]));
+                }
+                LtcCell::from_array(a)
+            })
+            .collect();
+        Ok(LtcTable { size, cells })
+    }
+
+    /// Bilinear lookup at a roughness in [0, 1] and a view cosine (clamped to
+    /// [0, 1]: views below the horizon, which shading normals produce, are
+    /// treated as grazing).
+    #[inline]
+    pub fn lookup(&self, roughness: f32, cos_view: f32) -> LtcCell {
+        let n = (self.size - 1) as f32;
+        let x = roughness.clamp(0.0, 1.0) * n;
+        let y = (1.0 - cos_view.clamp(0.0, 1.0)).sqrt() * n;
+        let (i0, j0) = ((x as usize).min(self.size - 2), (y as usize).min(self.size - 2));
+        let (fx, fy) = (x - i0 as f32, y - j0 as f32);
+        let a = self.cell(i0, j0).to_array();
+        let b = self.cell(i0 + 1, j0).to_array();
+        let c = self.cell(i0, j0 + 1).to_array();
+        let d = self.cell(i0 + 1, j0 + 1).to_array();
+        let mut r = [0.0f32; FIELDS];
+        for k in 0..FIELDS {
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bot = c[k] + (d[k] - c[k]) * fx;
+            r[k] = top + (bot - top) * fy;
+        }
+        LtcCell::from_array(r)
+    }
+}
+
+/// The fitted 64x64 table, committed under `data/` and compiled in.
+pub static EMBEDDED_LTC_64: &[u8] = include_bytes!("../../data/ltc_64.bin");
+
+/// The embedded table, parsed once.
+pub fn table() -> &'static LtcTable {
+    static TABLE: OnceLock<LtcTable> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        LtcTable::from_bytes(EMBEDDED_LTC_64)
+            .expect("data/ltc_64.bin is a valid table (checked by a test)")
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_table_parses_and_round_trips() {
+        let t = table();
+        assert_eq!(t.size, 64);
+        assert_eq!(&LtcTable::from_bytes(&t.to_bytes()).unwrap(), t);
+        for c in &t.cells {
+            assert!(c.to_array().iter().all(|v| v.is_finite()));
+            assert!(c.mag > 0.0 && c.hmass > 0.0 && c.fres >= 0.0);
+        }
+    }
+}

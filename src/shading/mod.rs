@@ -1,0 +1,11 @@
+//! Shading: the BRDF, the analytic unshadowed light U (exact Lambert form
+//! factor + LTC for GGX) on polygonal lights, and the project's LTC fit.
+
+pub mod brdf;
+pub mod ltc;
+pub mod ltc_fit;
+pub mod nelder_mead;
+pub mod polygon;
+pub mod unshadowed;
+
+pub use unshadowed::{SurfacePoint, unshadowed, unshadowed_lobes};
