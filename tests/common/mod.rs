@@ -90,3 +90,25 @@ pub fn rel_mse_where(x: &Frame, reference: &Frame, mask: impl Fn(usize) -> bool)
 pub fn rel_mse(x: &Frame, reference: &Frame) -> f64 {
     penumbra::report::stats::rel_mse(&x.color, &reference.color)
 }
+
+/// Pixels away from geometric edges: the pixel and its 8 neighbours see the
+/// same kind of thing with the same material in `frame` (rendered at pixel
+/// centres). The reference's box filter blends across edges; these pixels
+/// compare estimators, not pixel filters.
+pub fn interior(frame: &Frame) -> Vec<bool> {
+    let (w, h) = (frame.width as i64, frame.height as i64);
+    let key = |x: i64, y: i64| {
+        let g = &frame.gbuf[(y * w + x) as usize];
+        (g.kind, g.material)
+    };
+    (0..w * h)
+        .map(|k| {
+            let (x, y) = (k % w, k / w);
+            if x == 0 || y == 0 || x == w - 1 || y == h - 1 {
+                return false;
+            }
+            let centre = key(x, y);
+            (-1..=1).all(|dy| (-1..=1).all(|dx| key(x + dx, y + dy) == centre))
+        })
+        .collect()
+}
