@@ -20,6 +20,18 @@ struct Reprojected {
     len: f32,
 }
 
+/// Weighted sums over the valid reprojection taps.
+#[derive(Default)]
+struct Acc {
+    wsum: f32,
+    un: Vec3,
+    sn: Vec3,
+    m1: f32,
+    m2: f32,
+    len: f32,
+    lu: f32,
+}
+
 /// Non-finite or negative input would poison the history for `max_history`
 /// frames; treat it as no light.
 #[inline]
@@ -152,60 +164,61 @@ fn reproject(
     }
     let (x0, y0) = (floor(p.x), floor(p.y));
     let (fx, fy) = (p.x - x0 as f32, p.y - y0 as f32);
-    let mut wsum = 0.0f32;
-    let mut out = Reprojected {
-        un: Vec3::ZERO,
-        sn: Vec3::ZERO,
-        m1: 0.0,
-        m2: 0.0,
-        len: 0.0,
-    };
-    let mut lu_prev = 0.0f32;
-    for (dy, wy) in [(0, 1.0 - fy), (1, fy)] {
-        for (dx, wx) in [(0, 1.0 - fx), (1, fx)] {
-            let wt = wx * wy;
-            let (tx, ty) = (x0 + dx, y0 + dy);
-            // Zero-weight taps are skipped, so a whole-pixel shift reads one tap.
-            if wt <= 0.0 || tx < 0 || ty < 0 || tx >= w || ty >= h {
-                continue;
-            }
-            let j = (ty * w + tx) as usize;
-            let m = &prev.meta[j];
-            let ok = m.depth > 0.0
-                && (m.depth - depth).abs() <= s.depth_tolerance * depth
-                && normal_close(decode_normal(m.normal), normal, s.min_normal_dot)
-                && normal.dot(m.pos - pos).abs() <= s.plane_tolerance * depth
-                && m.len > 0.0;
-            if !ok {
-                continue;
-            }
-            wsum += wt;
-            out.un += prev.un[j] * wt;
-            out.sn += prev.sn[j] * wt;
-            out.m1 += m.m1 * wt;
-            out.m2 += m.m2 * wt;
-            out.len += m.len * wt;
-            lu_prev += m.lu * wt;
+    let mut acc = Acc::default();
+    let tap = |acc: &mut Acc, tx: i64, ty: i64, wt: f32| {
+        // Zero-weight taps are skipped, so a whole-pixel shift reads one tap.
+        if wt <= 0.0 || tx < 0 || ty < 0 || tx >= w || ty >= h {
+            return;
         }
-    }
+        let j = (ty * w + tx) as usize;
+        let m = &prev.meta[j];
+        let ok = m.depth > 0.0
+            && (m.depth - depth).abs() <= s.depth_tolerance * depth
+            && normal.dot(m.pos - pos).abs() <= s.plane_tolerance * depth
+            && m.len > 0.0
+            && normal_close(decode_normal(m.normal), normal, s.min_normal_dot);
+        if ok {
+            acc.wsum += wt;
+            acc.un += prev.un[j] * wt;
+            acc.sn += prev.sn[j] * wt;
+            acc.m1 += m.m1 * wt;
+            acc.m2 += m.m2 * wt;
+            acc.len += m.len * wt;
+            acc.lu += m.lu * wt;
+        }
+    };
+    tap(&mut acc, x0, y0, (1.0 - fx) * (1.0 - fy));
+    tap(&mut acc, x0 + 1, y0, fx * (1.0 - fy));
+    tap(&mut acc, x0, y0 + 1, (1.0 - fx) * fy);
+    tap(&mut acc, x0 + 1, y0 + 1, fx * fy);
+    let Acc {
+        wsum,
+        un,
+        sn,
+        m1,
+        m2,
+        len,
+        lu: lu_prev,
+    } = acc;
     // A sliver of valid footprint is too little to trust.
     if wsum < 1e-3 {
         return None;
     }
     let inv = 1.0 / wsum;
-    lu_prev *= inv;
+    let lu_prev = lu_prev * inv;
     // The analytic U is noise-free, so any sizeable change is a real light
     // change (moved, edited, toggled): the old visibility no longer applies.
     let big = lu.max(lu_prev);
     if big > 1e-30 && (lu - lu_prev).abs() > s.u_change * big {
         return None;
     }
-    out.un *= inv;
-    out.sn *= inv;
-    out.m1 *= inv;
-    out.m2 *= inv;
-    out.len *= inv;
-    Some(out)
+    Some(Reprojected {
+        un: un * inv,
+        sn: sn * inv,
+        m1: m1 * inv,
+        m2: m2 * inv,
+        len: len * inv,
+    })
 }
 
 /// floor as an integer without a libm call (baseline x86-64 has no roundss).
