@@ -1,0 +1,240 @@
+//! Temporal accumulation: reproject last frame's accumulated `U_N`/`S_N` and
+//! blend the new frame in with ONE factor per pixel for both signals.
+//!
+//! A per-signal or per-channel factor would make `S_N` and `U_N` averages of
+//! different sample sets and silently break the ratio, so the factor depends
+//! only on the history length, never on the signal values.
+
+use super::history::{History, Meta, decode_normal, encode_normal};
+use super::tiles::{self, TILE};
+use super::{DenoiseSettings, GuideBuffers, luminance, ratio};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// History reprojected to one pixel.
+struct Reprojected {
+    un: Vec3,
+    sn: Vec3,
+    m1: f32,
+    m2: f32,
+    len: f32,
+}
+
+/// Weighted sums over the valid reprojection taps.
+#[derive(Default)]
+struct Acc {
+    wsum: f32,
+    un: Vec3,
+    sn: Vec3,
+    m1: f32,
+    m2: f32,
+    len: f32,
+    lu: f32,
+}
+
+/// Non-finite or negative input would poison the history for `max_history`
+/// frames; treat it as no light.
+#[inline]
+fn sanitize(c: Vec3) -> Vec3 {
+    if c.is_finite() {
+        c.max(Vec3::ZERO)
+    } else {
+        Vec3::ZERO
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn accumulate(
+    guide: &GuideBuffers,
+    prev: &History,
+    cur: &mut History,
+    lum_u: &mut [f32],
+    raw_ratio: &mut [f32],
+    row_class: &mut [u8],
+    un: &mut [Vec3],
+    sn: &mut [Vec3],
+    settings: &DenoiseSettings,
+) {
+    let w = guide.width as usize;
+    let cap = settings.max_history.max(1) as f32;
+    let tw = w.div_ceil(TILE);
+    (
+        cur.un.par_chunks_mut(w),
+        cur.sn.par_chunks_mut(w),
+        cur.meta.par_chunks_mut(w),
+        lum_u.par_chunks_mut(w),
+        raw_ratio.par_chunks_mut(w),
+        row_class.par_chunks_mut(tw),
+        un.par_chunks_mut(w),
+        sn.par_chunks_mut(w),
+    )
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(y, (h_un, h_sn, h_meta, lum, raw, class, un, sn))| {
+            // Tile classification rides along: this pass reads every pixel
+            // anyway, a separate pass would read them all again.
+            class.fill(tiles::UNIFORM);
+            for x in 0..w {
+                let i = y * w + x;
+                let d = guide.depth[i];
+                if !(d > 0.0 && d.is_finite()) {
+                    // No surface: pass through untouched, keep no history. The
+                    // copy in `h_un/h_sn` is what the spatial filter reads.
+                    h_un[x] = un[x];
+                    h_sn[x] = sn[x];
+                    h_meta[x] = Meta::default();
+                    lum[x] = -1.0;
+                    raw[x] = 1.0;
+                    continue;
+                }
+                let u_in = sanitize(un[x]);
+                let s_in = sanitize(sn[x]);
+                let r = ratio(u_in, s_in);
+                let lu = luminance(guide.u[i]);
+                let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
+                let pos = guide.position[i];
+                let normal = guide.normal[i];
+
+                let hist = if settings.temporal && guide.prev_valid[i] {
+                    reproject(guide, prev, x, y, d, pos, normal, lu, settings)
+                } else {
+                    None
+                };
+                let (acc_u, acc_s, m1, m2, len) = match hist {
+                    Some(h) => {
+                        let len = (h.len + 1.0).min(cap);
+                        // alpha = max(1 / (len_prev + 1), 1 / cap), the same for
+                        // both signals and all channels.
+                        let a = 1.0 / len;
+                        (
+                            h.un + (u_in - h.un) * a,
+                            h.sn + (s_in - h.sn) * a,
+                            h.m1 + (r - h.m1) * a,
+                            h.m2 + (r * r - h.m2) * a,
+                            len,
+                        )
+                    }
+                    None => (u_in, s_in, r, r * r, 1.0),
+                };
+                un[x] = acc_u;
+                sn[x] = acc_s;
+                h_un[x] = acc_u;
+                h_sn[x] = acc_s;
+                h_meta[x] = Meta {
+                    pos,
+                    normal: encode_normal(normal),
+                    depth: d,
+                    lu,
+                    m1,
+                    m2,
+                    len,
+                };
+                lum[x] = lu;
+                raw[x] = r;
+                class[x / TILE] &= tiles::pixel_class(acc_u, acc_s);
+            }
+        });
+}
+
+/// Bilinear fetch of the previous accumulation at `prev_pixel`, each of the
+/// 2x2 taps validated on its own (a tap across a silhouette is dropped and the
+/// rest renormalised). `None`: disoccluded, or the light changed.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn reproject(
+    guide: &GuideBuffers,
+    prev: &History,
+    x: usize,
+    y: usize,
+    depth: f32,
+    pos: Vec3,
+    normal: Vec3,
+    lu: f32,
+    s: &DenoiseSettings,
+) -> Option<Reprojected> {
+    let w = guide.width as i64;
+    let h = guide.height as i64;
+    let p = guide.prev_pixel[y * guide.width as usize + x] - 0.5;
+    if !p.is_finite() {
+        return None;
+    }
+    // Far off-screen: no history (and no overflow in the casts below).
+    if p.x.abs() > 1e9 || p.y.abs() > 1e9 {
+        return None;
+    }
+    let (x0, y0) = (floor(p.x), floor(p.y));
+    let (fx, fy) = (p.x - x0 as f32, p.y - y0 as f32);
+    let mut acc = Acc::default();
+    let tap = |acc: &mut Acc, tx: i64, ty: i64, wt: f32| {
+        // Zero-weight taps are skipped, so a whole-pixel shift reads one tap.
+        if wt <= 0.0 || tx < 0 || ty < 0 || tx >= w || ty >= h {
+            return;
+        }
+        let j = (ty * w + tx) as usize;
+        let m = &prev.meta[j];
+        let ok = m.depth > 0.0
+            && (m.depth - depth).abs() <= s.depth_tolerance * depth
+            && normal.dot(m.pos - pos).abs() <= s.plane_tolerance * depth
+            && m.len > 0.0
+            && normal_close(decode_normal(m.normal), normal, s.min_normal_dot);
+        if ok {
+            acc.wsum += wt;
+            acc.un += prev.un[j] * wt;
+            acc.sn += prev.sn[j] * wt;
+            acc.m1 += m.m1 * wt;
+            acc.m2 += m.m2 * wt;
+            acc.len += m.len * wt;
+            acc.lu += m.lu * wt;
+        }
+    };
+    tap(&mut acc, x0, y0, (1.0 - fx) * (1.0 - fy));
+    tap(&mut acc, x0 + 1, y0, fx * (1.0 - fy));
+    tap(&mut acc, x0, y0 + 1, (1.0 - fx) * fy);
+    tap(&mut acc, x0 + 1, y0 + 1, fx * fy);
+    let Acc {
+        wsum,
+        un,
+        sn,
+        m1,
+        m2,
+        len,
+        lu: lu_prev,
+    } = acc;
+    // A sliver of valid footprint is too little to trust.
+    if wsum < 1e-3 {
+        return None;
+    }
+    let inv = 1.0 / wsum;
+    let lu_prev = lu_prev * inv;
+    // The analytic U is noise-free, so any sizeable change is a real light
+    // change (moved, edited, toggled): the old visibility no longer applies.
+    let big = lu.max(lu_prev);
+    if big > 1e-30 && (lu - lu_prev).abs() > s.u_change * big {
+        return None;
+    }
+    Some(Reprojected {
+        un: un * inv,
+        sn: sn * inv,
+        m1: m1 * inv,
+        m2: m2 * inv,
+        len: len * inv,
+    })
+}
+
+/// floor as an integer without a libm call (baseline x86-64 has no roundss).
+#[inline]
+fn floor(v: f32) -> i64 {
+    let t = v as i64;
+    if (t as f32) > v { t - 1 } else { t }
+}
+
+/// dot(a / |a|, b) >= min_dot for unit `b`, without normalising `a`.
+#[inline]
+fn normal_close(a: Vec3, b: Vec3, min_dot: f32) -> bool {
+    let d = a.dot(b);
+    if min_dot >= 0.0 {
+        d >= 0.0 && d * d >= min_dot * min_dot * a.length_squared()
+    } else {
+        d >= min_dot * a.length()
+    }
+}

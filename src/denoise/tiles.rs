@@ -1,0 +1,108 @@
+//! Tile classification (the FidelityFX shadow denoiser idea): a tile whose
+//! accumulated ratio is exactly 1 everywhere (fully lit) or exactly 0 (fully
+//! shadowed) needs no filtering, and most of a frame is such tiles.
+//!
+//! A tile is skipped only when its 8 neighbours are uniform too, so a
+//! penumbra that starts just across a tile border still gets filtered on both
+//! sides. Skipping cannot change the ratio of a skipped pixel: it keeps its
+//! exact 0 or 1, which is what a filter over an all-0 or all-1 neighbourhood
+//! would give.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Tile edge in pixels.
+pub const TILE: usize = 8;
+
+const LIT: u8 = 1;
+const DARK: u8 = 2;
+/// Class bits of an empty tile (or row of a tile): compatible with both.
+pub(crate) const UNIFORM: u8 = LIT | DARK;
+
+pub(crate) struct Tiles {
+    pub tw: usize,
+    pub th: usize,
+    /// AND of the per-pixel class bits; nonzero = uniform (or empty).
+    class: Vec<u8>,
+    skip: Vec<bool>,
+}
+
+impl Tiles {
+    pub fn new(width: u32, height: u32) -> Tiles {
+        let tw = (width as usize).div_ceil(TILE);
+        let th = (height as usize).div_ceil(TILE);
+        Tiles {
+            tw,
+            th,
+            class: vec![0; tw * th],
+            skip: vec![false; tw * th],
+        }
+    }
+
+    pub fn count(&self) -> usize {
+        self.tw * self.th
+    }
+
+    /// Number of tile columns.
+    #[inline]
+    pub fn columns(&self) -> usize {
+        self.tw
+    }
+
+    #[inline]
+    pub fn skipped(&self, tx: usize, ty: usize) -> bool {
+        self.skip[ty * self.tw + tx]
+    }
+
+    /// Combines the per-row classes of each tile (`row_class`: one byte per
+    /// pixel row and tile column, from the temporal pass), marks the
+    /// skippable tiles and returns how many are skipped.
+    pub fn classify(&mut self, row_class: &[u8], height: usize, enabled: bool) -> usize {
+        if !enabled {
+            self.skip.fill(false);
+            return 0;
+        }
+        let tw = self.tw;
+        self.class
+            .par_chunks_mut(tw)
+            .enumerate()
+            .for_each(|(ty, row)| {
+                for (tx, c) in row.iter_mut().enumerate() {
+                    *c = (ty * TILE..((ty + 1) * TILE).min(height))
+                        .fold(UNIFORM, |bits, y| bits & row_class[y * tw + tx]);
+                }
+            });
+        let (tw, th) = (self.tw, self.th);
+        let class = &self.class;
+        self.skip
+            .par_chunks_mut(tw)
+            .enumerate()
+            .for_each(|(ty, row)| {
+                for (tx, s) in row.iter_mut().enumerate() {
+                    let mut uniform = true;
+                    for ny in ty.saturating_sub(1)..(ty + 2).min(th) {
+                        for nx in tx.saturating_sub(1)..(tx + 2).min(tw) {
+                            uniform &= class[ny * tw + nx] != 0;
+                        }
+                    }
+                    *s = uniform;
+                }
+            });
+        self.skip.iter().filter(|&&s| s).count()
+    }
+}
+
+/// Exact tests on purpose: the ratio of a skipped pixel must be exactly what
+/// filtering would give, and only exact 0 and 1 guarantee that. A pixel with
+/// no light at all (both zero) fits either class.
+#[inline]
+pub(crate) fn pixel_class(un: Vec3, sn: Vec3) -> u8 {
+    let mut c = 0;
+    if sn == un {
+        c |= LIT;
+    }
+    if sn == Vec3::ZERO {
+        c |= DARK;
+    }
+    c
+}
