@@ -54,9 +54,18 @@ struct SceneArgs {
     /// Seed of every random choice; the same seed gives the same bytes.
     #[arg(long, default_value_t = 0)]
     seed: u32,
+    /// Denoise U_N and S_N (ratio, stochastic, soft-shadow): on | off.
+    #[arg(long, default_value = "on")]
+    denoise: Switch,
     /// Exposure in stops for PNG and the window.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Switch {
+    On,
+    Off,
 }
 
 #[derive(Args)]
@@ -186,6 +195,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         mode: c.mode,
         spp: c.spp.max(1),
         seed: c.seed,
+        denoise: c.denoise == Switch::On,
         ..RenderSettings::default()
     };
     let mut frame = Frame::new(w, h);
@@ -222,6 +232,7 @@ fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {
         spp: a.common.spp.max(1),
         threads: a.common.threads,
         seed: a.common.seed,
+        denoise: a.common.denoise == Switch::On,
         exposure: a.common.exposure,
         frames: a.frames,
         screenshot: a.screenshot,

@@ -9,7 +9,8 @@ use super::mode::Mode;
 use super::primary::{PACKET_H, PixelOffset, trace_rows};
 use super::world::World;
 use crate::scene::{Camera, CameraFrame};
-use glam::Vec3;
+use crate::denoise::{DenoiseSettings, Denoiser, GuideBuffers};
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -26,6 +27,8 @@ pub struct RenderSettings {
     pub seed: u32,
     /// How shadow rays are handed to Embree.
     pub packet: PacketWidth,
+    /// Temporal + spatial denoising of `U_N`, `S_N` (ratio, stochastic, soft-shadow).
+    pub denoise: bool,
 }
 
 impl Default for RenderSettings {
@@ -35,6 +38,7 @@ impl Default for RenderSettings {
             spp: 1,
             seed: 0,
             packet: PacketWidth::Sixteen,
+            denoise: true,
         }
     }
 }
@@ -56,6 +60,8 @@ pub struct PhaseTimes {
     pub u: f64,
     pub shadow: f64,
     pub composite: f64,
+    /// Wall time of the denoiser (it runs after the band pass, over the frame).
+    pub denoise: f64,
     pub wall: f64,
 }
 
@@ -87,6 +93,9 @@ pub struct Frame {
     pub sn: Vec<Vec3>,
     /// The frame's linear radiance.
     pub color: Vec<Vec3>,
+    /// The denoiser's guides, in the layout it reads (filled by the band pass).
+    guide: Guides,
+    denoiser: Denoiser,
     /// `reference`: running sum of samples, and how many per pixel.
     accum: Vec<Vec3>,
     accum_spp: u32,
@@ -106,6 +115,8 @@ impl Frame {
             un: vec![Vec3::ZERO; n],
             sn: vec![Vec3::ZERO; n],
             color: vec![Vec3::ZERO; n],
+            guide: Guides::new(n),
+            denoiser: Denoiser::new(width, height),
             accum: Vec::new(),
             accum_spp: 0,
             prev_camera: None,
@@ -119,6 +130,7 @@ impl Frame {
 
     /// Forgets history: the next frame starts accumulation afresh.
     pub fn reset_history(&mut self) {
+        self.denoiser.reset();
         self.accum.clear();
         self.accum_spp = 0;
         self.prev_camera = None;
@@ -140,9 +152,20 @@ impl Frame {
             self.accum_spp = 0;
         }
         let clock = PhaseClock::default();
+        let mut denoise = 0.0;
         match settings.mode {
             Mode::Reference => self.render_reference(world, &cam, settings, &clock),
-            _ => self.render_direct(world, &cam, &prev, settings, &clock),
+            Mode::Unshadowed => self.render_direct(world, &cam, &prev, settings, &clock, true),
+            _ if !settings.denoise => self.render_direct(world, &cam, &prev, settings, &clock, true),
+            _ => {
+                self.render_direct(world, &cam, &prev, settings, &clock, false);
+                let t = Instant::now();
+                self.denoise(settings.mode);
+                denoise = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                self.composite(settings.mode);
+                PhaseClock::add(&clock.composite, t);
+            }
         }
         self.prev_camera = Some(*camera);
         self.frame_index = self.frame_index.wrapping_add(1);
@@ -152,12 +175,22 @@ impl Frame {
             u: secs(&clock.u),
             shadow: secs(&clock.shadow),
             composite: secs(&clock.composite),
+            denoise,
             wall: start.elapsed().as_secs_f64(),
         }
     }
 
-    fn render_direct(&mut self, world: &World, cam: &CameraFrame, prev: &CameraFrame, settings: &RenderSettings, clock: &PhaseClock) {
-        let band = (BAND_ROWS * self.width) as usize;
+    /// The band pass: primary rays, `U`, samples and shadow rays, and (when
+    /// `composite`, i.e. nothing is denoised) the final colour.
+    fn render_direct(
+        &mut self,
+        world: &World,
+        cam: &CameraFrame,
+        prev: &CameraFrame,
+        settings: &RenderSettings,
+        clock: &PhaseClock,
+        composite: bool,
+    ) {
         let width = self.width;
         let lights = world.scene.lights.len();
         let estimator = match settings.mode {
@@ -166,57 +199,119 @@ impl Frame {
             Mode::Unshadowed | Mode::Reference => None,
         };
         let first_sample = self.frame_index.wrapping_mul(settings.spp);
-        self.gbuf
-            .par_chunks_mut(band)
-            .zip(self.u.par_chunks_mut(band))
-            .zip(self.un.par_chunks_mut(band))
-            .zip(self.sn.par_chunks_mut(band))
-            .zip(self.color.par_chunks_mut(band))
-            .enumerate()
-            .for_each_init(BandScratch::default, |scratch, (b, ((((gbuf, u), un), sn), color))| {
-                let y0 = b as u32 * BAND_ROWS;
-                let t = Instant::now();
-                trace_rows(world, cam, prev, y0, PixelOffset::Centre, gbuf);
-                let t = PhaseClock::add(&clock.primary, t);
-                scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
-                for (k, (g, u)) in gbuf.iter().zip(u.iter_mut()).enumerate() {
-                    *u = analytic_u(world, g, &mut scratch.per_light[k * lights..(k + 1) * lights]);
+        self.bands().into_par_iter().for_each_init(BandScratch::default, |scratch, mut band| {
+            let t = Instant::now();
+            trace_rows(world, cam, prev, band.y0, PixelOffset::Centre, band.gbuf);
+            let t = PhaseClock::add(&clock.primary, t);
+            let n = band.gbuf.len();
+            scratch.per_light.resize(n * lights, Vec3::ZERO);
+            for (k, (g, u)) in band.gbuf.iter().zip(band.u.iter_mut()).enumerate() {
+                *u = analytic_u(world, g, &mut scratch.per_light[k * lights..(k + 1) * lights]);
+            }
+            let t = PhaseClock::add(&clock.u, t);
+            band.un.fill(Vec3::ZERO);
+            band.sn.fill(Vec3::ZERO);
+            let t = if let Some(est) = estimator {
+                scratch.batch.clear();
+                for (k, g) in band.gbuf.iter().enumerate() {
+                    draw_samples(
+                        world,
+                        g,
+                        &scratch.per_light[k * lights..(k + 1) * lights],
+                        band.u[k],
+                        est,
+                        (band.y0 * width + k as u32, first_sample, settings.seed),
+                        settings.spp,
+                        k as u32,
+                        &mut band.un[k],
+                        &mut scratch.batch,
+                    );
                 }
-                let t = PhaseClock::add(&clock.u, t);
-                un.fill(Vec3::ZERO);
-                sn.fill(Vec3::ZERO);
-                let t = if let Some(est) = estimator {
-                    scratch.batch.clear();
-                    for (k, g) in gbuf.iter().enumerate() {
-                        let pixel = y0 * width + k as u32;
-                        draw_samples(
-                            world,
-                            g,
-                            &scratch.per_light[k * lights..(k + 1) * lights],
-                            u[k],
-                            est,
-                            (pixel, first_sample, settings.seed),
-                            settings.spp,
-                            k as u32,
-                            &mut un[k],
-                            &mut scratch.batch,
-                        );
-                    }
-                    scratch.batch.trace(&world.rt, settings.packet, |r| sn[r.slot as usize] += r.weight);
-                    PhaseClock::add(&clock.shadow, t)
-                } else {
-                    t
-                };
-                for k in 0..gbuf.len() {
-                    let lit = match settings.mode {
-                        Mode::Unshadowed | Mode::Reference => u[k],
-                        Mode::Ratio | Mode::SoftShadow => u[k] * ratio(sn[k], un[k]),
-                        Mode::Stochastic => sn[k],
-                    };
-                    color[k] = finite_or_zero(gbuf[k].emission + lit);
+                let sn = &mut *band.sn;
+                scratch.batch.trace(&world.rt, settings.packet, |r| sn[r.slot as usize] += r.weight);
+                PhaseClock::add(&clock.shadow, t)
+            } else {
+                t
+            };
+            if composite {
+                for k in 0..n {
+                    band.color[k] = shade(settings.mode, &band.gbuf[k], band.u[k], band.un[k], band.sn[k]);
                 }
-                PhaseClock::add(&clock.composite, t);
+            } else {
+                for (k, g) in band.gbuf.iter().enumerate() {
+                    band.guide.set(k, g);
+                }
+                if settings.mode == Mode::Stochastic {
+                    // The full Monte Carlo signal is filtered as `S_N` over the
+                    // noise-free `U`: its whole noise, not only visibility's,
+                    // then drives the filter (a fair "option 2").
+                    band.un.copy_from_slice(band.u);
+                }
+            }
+            PhaseClock::add(&clock.composite, t);
+        });
+    }
+
+    /// Splits every per-pixel buffer into the same bands of rows.
+    fn bands(&mut self) -> Vec<BandMut<'_>> {
+        let n = (BAND_ROWS * self.width) as usize;
+        let g = &mut self.guide;
+        let mut guides = g
+            .position
+            .chunks_mut(n)
+            .zip(g.normal.chunks_mut(n))
+            .zip(g.depth.chunks_mut(n))
+            .zip(g.prev_pixel.chunks_mut(n))
+            .zip(g.prev_valid.chunks_mut(n))
+            .map(|((((position, normal), depth), prev_pixel), prev_valid)| GuideMut {
+                position,
+                normal,
+                depth,
+                prev_pixel,
+                prev_valid,
             });
+        self.gbuf
+            .chunks_mut(n)
+            .zip(self.u.chunks_mut(n))
+            .zip(self.un.chunks_mut(n))
+            .zip(self.sn.chunks_mut(n))
+            .zip(self.color.chunks_mut(n))
+            .enumerate()
+            .map(|(b, ((((gbuf, u), un), sn), color))| BandMut {
+                y0: b as u32 * BAND_ROWS,
+                gbuf,
+                u,
+                un,
+                sn,
+                color,
+                guide: guides.next().expect("guides have the same bands"),
+            })
+            .collect()
+    }
+
+    fn denoise(&mut self, _mode: Mode) {
+        let guide = GuideBuffers {
+            width: self.width,
+            height: self.height,
+            position: &self.guide.position,
+            normal: &self.guide.normal,
+            depth: &self.guide.depth,
+            prev_pixel: &self.guide.prev_pixel,
+            prev_valid: &self.guide.prev_valid,
+            u: &self.u,
+        };
+        self.denoiser
+            .denoise(&guide, &mut self.un, &mut self.sn, &DenoiseSettings::default());
+    }
+
+    fn composite(&mut self, mode: Mode) {
+        self.color
+            .par_iter_mut()
+            .zip(&self.gbuf)
+            .zip(&self.u)
+            .zip(&self.un)
+            .zip(&self.sn)
+            .for_each(|((((c, g), u), un), sn)| *c = shade(mode, g, *u, *un, *sn));
     }
 
     /// Adds `settings.spp` jittered samples of the full MIS estimator per
@@ -287,6 +382,70 @@ impl Frame {
     pub fn is_surface(&self, k: usize) -> bool {
         self.gbuf[k].kind == PixelKind::Surface
     }
+}
+
+/// A pixel's colour from its estimates.
+#[inline]
+fn shade(mode: Mode, g: &GSample, u: Vec3, un: Vec3, sn: Vec3) -> Vec3 {
+    let lit = match mode {
+        Mode::Unshadowed | Mode::Reference => u,
+        Mode::Ratio | Mode::SoftShadow => u * ratio(sn, un),
+        Mode::Stochastic => sn,
+    };
+    finite_or_zero(g.emission + lit)
+}
+
+/// The denoiser's per-pixel guides as separate arrays.
+struct Guides {
+    position: Vec<Vec3>,
+    normal: Vec<Vec3>,
+    depth: Vec<f32>,
+    prev_pixel: Vec<Vec2>,
+    prev_valid: Vec<bool>,
+}
+
+impl Guides {
+    fn new(n: usize) -> Guides {
+        Guides {
+            position: vec![Vec3::ZERO; n],
+            normal: vec![Vec3::ZERO; n],
+            depth: vec![0.0; n],
+            prev_pixel: vec![Vec2::ZERO; n],
+            prev_valid: vec![false; n],
+        }
+    }
+}
+
+struct GuideMut<'a> {
+    position: &'a mut [Vec3],
+    normal: &'a mut [Vec3],
+    depth: &'a mut [f32],
+    prev_pixel: &'a mut [Vec2],
+    prev_valid: &'a mut [bool],
+}
+
+impl GuideMut<'_> {
+    /// Only receiver surfaces are denoised; lights and misses pass through.
+    #[inline]
+    fn set(&mut self, k: usize, g: &GSample) {
+        let surface = g.kind == PixelKind::Surface;
+        self.position[k] = g.position;
+        self.normal[k] = if surface { g.ng } else { Vec3::ZERO };
+        self.depth[k] = if surface { g.depth } else { 0.0 };
+        self.prev_pixel[k] = g.prev_pixel;
+        self.prev_valid[k] = g.prev_valid;
+    }
+}
+
+/// One band of rows of every per-pixel buffer.
+struct BandMut<'a> {
+    y0: u32,
+    gbuf: &'a mut [GSample],
+    u: &'a mut [Vec3],
+    un: &'a mut [Vec3],
+    sn: &'a mut [Vec3],
+    color: &'a mut [Vec3],
+    guide: GuideMut<'a>,
 }
 
 /// The last line of defence of the no-NaN rule: a non-finite value becomes 0.

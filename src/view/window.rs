@@ -16,6 +16,7 @@ pub struct ViewOptions {
     pub spp: u32,
     pub threads: usize,
     pub seed: u32,
+    pub denoise: bool,
     pub exposure: f32,
     /// Close after this many frames.
     pub frames: Option<u32>,
@@ -52,6 +53,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         mode: if opts.mode.available() { opts.mode } else { Mode::Unshadowed },
         spp: opts.spp,
         seed: opts.seed,
+        denoise: opts.denoise,
         ..RenderSettings::default()
     };
     let mut frame = Frame::new(w, h);

@@ -24,6 +24,7 @@ pub struct Job {
     pub frames: u32,
     pub threads: usize,
     pub seed: u32,
+    pub denoise: bool,
 }
 
 impl Default for Job {
@@ -36,6 +37,7 @@ impl Default for Job {
             frames: 1,
             threads: 1,
             seed: 0,
+            denoise: false,
         }
     }
 }
@@ -49,6 +51,7 @@ pub fn render(scene: &Scene, job: &Job) -> Frame {
         mode: job.mode,
         spp: job.spp,
         seed: job.seed,
+        denoise: job.denoise,
         ..RenderSettings::default()
     };
     let mut frame = Frame::new(job.width, job.height);
