@@ -1,13 +1,24 @@
-//! `penumbra bench`: median frame time per available mode, its split, the
-//! ratio to the Embree ceiling, and the thread speed-up.
+//! `penumbra bench`: median frame time per mode, its split by stage, and the
+//! ratio to the Embree ceiling (the same number of rays, no shading), at one
+//! thread and at all threads.
 
-use super::ceiling::primary_ray_time;
+use super::ceiling::ray_ceiling;
 use super::stats::median;
 use crate::embree::{self, Device};
-use crate::render::{Frame, Mode, RenderSettings, World};
+use crate::render::{Frame, Mode, PhaseTimes, RenderSettings, World};
 use crate::scene::Scene;
 use anyhow::{Context, Result};
 use std::fmt::Write;
+
+/// The configurations measured: mode and whether the denoiser runs.
+const CONFIGS: [(Mode, bool); 6] = [
+    (Mode::Ratio, true),
+    (Mode::Ratio, false),
+    (Mode::Stochastic, true),
+    (Mode::Stochastic, false),
+    (Mode::SoftShadow, false),
+    (Mode::Unshadowed, false),
+];
 
 pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result<String> {
     let name = scene.source.display().to_string();
@@ -17,35 +28,66 @@ pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut out = String::new();
-    writeln!(out, "scene {name}: {tris} triangles, {width}x{height}, {frames} frames per figure (median)")?;
-    writeln!(out, "{:<12} {:>7} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9}", "mode", "threads", "ms/frame", "primary", "U", "shadow", "composite", "/ceiling")?;
+    writeln!(
+        out,
+        "scene {name}: {tris} triangles, {width}x{height}, 1 spp, median of {frames} frames after one warm-up (ms; stage times are thread time / threads)"
+    )?;
+    writeln!(
+        out,
+        "{:<16} {:>7} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9}",
+        "mode", "threads", "frame", "primary", "U", "shadow", "denoise", "composite", "/ceiling"
+    )?;
+    let mut frame_ms = Vec::new();
     for t in [1usize, threads] {
         let pool = embree::thread_pool(t)?;
-        let ceiling = pool.install(|| {
-            let runs: Vec<f64> = (0..frames).map(|_| primary_ray_time(&world, &camera, width, height)).collect();
-            median(&runs)
-        });
-        for mode in Mode::ALL.into_iter().filter(|m| m.available() && *m != Mode::Reference) {
-            let settings = RenderSettings { mode, ..RenderSettings::default() };
+        let ceilings: Vec<_> = (0..frames)
+            .map(|_| pool.install(|| ray_ceiling(&world, &camera, width, height, 1)))
+            .collect();
+        let ceiling = median(&ceilings.iter().map(|c| c.total()).collect::<Vec<_>>());
+        for (mode, denoise) in CONFIGS {
+            let settings = RenderSettings {
+                mode,
+                denoise,
+                ..RenderSettings::default()
+            };
             let mut frame = Frame::new(width, height);
-            pool.install(|| frame.render(&world, &camera, &settings)); // warm-up
-            let runs: Vec<_> = (0..frames).map(|_| pool.install(|| frame.render(&world, &camera, &settings))).collect();
+            pool.install(|| frame.render(&world, &camera, &settings));
+            let runs: Vec<PhaseTimes> = (0..frames)
+                .map(|_| pool.install(|| frame.render(&world, &camera, &settings)))
+                .collect();
             let wall = median(&runs.iter().map(|r| r.wall).collect::<Vec<_>>());
-            let per = |f: fn(&crate::render::PhaseTimes) -> f64| median(&runs.iter().map(f).collect::<Vec<_>>()) / t as f64 * 1e3;
+            let stage = |f: fn(&PhaseTimes) -> f64| median(&runs.iter().map(f).collect::<Vec<_>>()) / t as f64 * 1e3;
+            let label = format!("{}{}", mode.name(), if denoise { "+dn" } else { "" });
             writeln!(
                 out,
-                "{:<12} {:>7} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>9.2}",
-                mode.name(),
+                "{:<16} {:>7} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>9.2}",
+                label,
                 t,
                 wall * 1e3,
-                per(|r| r.primary),
-                per(|r| r.u),
-                per(|r| r.shadow),
-                per(|r| r.composite),
+                stage(|r| r.primary),
+                stage(|r| r.u),
+                stage(|r| r.shadow),
+                median(&runs.iter().map(|r| r.denoise).collect::<Vec<_>>()) * 1e3,
+                stage(|r| r.composite),
                 wall / ceiling
             )?;
+            if mode == Mode::Ratio && denoise {
+                frame_ms.push(wall);
+            }
         }
-        writeln!(out, "{:<12} {:>7} {:>10.2}   (Embree alone: the same camera rays, 16-packets, no shading)", "ceiling", t, ceiling * 1e3)?;
+        let c = &ceilings[0];
+        writeln!(
+            out,
+            "{:<16} {:>7} {:>9.1}   Embree alone: {} camera rays + {} shadow rays, 16-wide packets, no shading",
+            "ceiling",
+            t,
+            ceiling * 1e3,
+            width * height,
+            c.shadow_rays
+        )?;
+    }
+    if let [one, all] = frame_ms[..] {
+        writeln!(out, "ratio+dn speed-up, {threads} threads over 1: {:.2}x", one / all)?;
     }
     Ok(out)
 }

@@ -5,4 +5,4 @@ mod ceiling;
 pub mod stats;
 
 pub use bench::bench_scene;
-pub use ceiling::primary_ray_time;
+pub use ceiling::{Ceiling, ray_ceiling};
