@@ -32,7 +32,15 @@ pub enum Aov {
 }
 
 impl Aov {
-    pub const ALL: [Aov; 7] = [Aov::Albedo, Aov::Normal, Aov::Depth, Aov::U, Aov::Un, Aov::Sn, Aov::Ratio];
+    pub const ALL: [Aov; 7] = [
+        Aov::Albedo,
+        Aov::Normal,
+        Aov::Depth,
+        Aov::U,
+        Aov::Un,
+        Aov::Sn,
+        Aov::Ratio,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -85,7 +93,10 @@ impl Aov {
 
 /// `out.png` + `depth` → `out.depth.exr`.
 pub fn aov_path(out: &Path, aov: Aov) -> PathBuf {
-    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     out.with_file_name(format!("{stem}.{}.exr", aov.name()))
 }
 
@@ -104,7 +115,11 @@ pub fn display_rgb8(c: Vec3, exposure_scale: f32) -> [u8; 3] {
 #[inline]
 pub fn srgb_encode(x: f32) -> f32 {
     let x = x.clamp(0.0, 1.0);
-    if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 /// Writes linear values as EXR (32-bit float RGB). Non-finite values are
@@ -119,31 +134,53 @@ pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Resul
         .collect();
     let img: ImageBuffer<Rgb<f32>, Vec<f32>> =
         ImageBuffer::from_raw(width, height, data).expect("buffer size matches width * height");
-    img.save_with_format(path, image::ImageFormat::OpenExr).map_err(|source| OutputError::Write {
-        path: path.to_path_buf(),
-        source,
-    })
+    img.save_with_format(path, image::ImageFormat::OpenExr)
+        .map_err(|source| OutputError::Write {
+            path: path.to_path_buf(),
+            source,
+        })
 }
 
-pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3], exposure: f32) -> Result<(), OutputError> {
+pub fn write_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[Vec3],
+    exposure: f32,
+) -> Result<(), OutputError> {
     let scale = exposure.exp2();
-    let data: Vec<u8> = pixels.iter().flat_map(|c| display_rgb8(*c, scale)).collect();
+    let data: Vec<u8> = pixels
+        .iter()
+        .flat_map(|c| display_rgb8(*c, scale))
+        .collect();
     let img: ImageBuffer<Rgb<u8>, Vec<u8>> =
         ImageBuffer::from_raw(width, height, data).expect("buffer size matches width * height");
-    img.save_with_format(path, image::ImageFormat::Png).map_err(|source| OutputError::Write {
-        path: path.to_path_buf(),
-        source,
-    })
+    img.save_with_format(path, image::ImageFormat::Png)
+        .map_err(|source| OutputError::Write {
+            path: path.to_path_buf(),
+            source,
+        })
 }
 
 /// Writes the frame's colour to `path` (format from the extension) and each
 /// AOV beside it as EXR. Returns the paths written.
-pub fn write_frame(path: &Path, frame: &Frame, exposure: f32, aovs: &[Aov]) -> Result<Vec<PathBuf>, OutputError> {
-    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+pub fn write_frame(
+    path: &Path,
+    frame: &Frame,
+    exposure: f32,
+    aovs: &[Aov],
+) -> Result<Vec<PathBuf>, OutputError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
     match ext.as_deref() {
         Some("png") => write_png(path, frame.width, frame.height, &frame.color, exposure)?,
         Some("exr") => write_exr(path, frame.width, frame.height, &frame.color)?,
-        _ => return Err(OutputError::Format { path: path.to_path_buf() }),
+        _ => {
+            return Err(OutputError::Format {
+                path: path.to_path_buf(),
+            });
+        }
     }
     let mut written = vec![path.to_path_buf()];
     for &aov in aovs {

@@ -19,7 +19,10 @@ const F0: Vec3 = Vec3::new(1.0, 0.5, 0.04);
 /// A shading frame tilted away from the world axes, and an off-origin point,
 /// so the frame construction is exercised too.
 fn world() -> (Quat, Vec3) {
-    (Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1), Vec3::new(1.0, 2.0, -0.5))
+    (
+        Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1),
+        Vec3::new(1.0, 2.0, -0.5),
+    )
 }
 
 /// Light placements in the local frame (n = +Z, view in +X): (name, light).
@@ -29,21 +32,53 @@ fn placements(view_deg: f32) -> Vec<(&'static str, Light)> {
     let l = Vec3::splat(1.0);
     let off = Quat::from_rotation_z(0.8) * Vec3::new(-0.6, 0.0, 0.8).normalize();
     vec![
-        ("overhead 2x2 at height 2", facing_square(Vec3::new(0.0, 0.0, 2.0), -Vec3::Z, 1.0, l)),
-        ("1x1 on the mirror direction at 3", facing_square(mirror * 3.0, -mirror, 0.5, l)),
-        ("1x1 off the mirror direction", facing_square(off * 3.0, -off, 0.5, l)),
+        (
+            "overhead 2x2 at height 2",
+            facing_square(Vec3::new(0.0, 0.0, 2.0), -Vec3::Z, 1.0, l),
+        ),
+        (
+            "1x1 on the mirror direction at 3",
+            facing_square(mirror * 3.0, -mirror, 0.5, l),
+        ),
+        (
+            "1x1 off the mirror direction",
+            facing_square(off * 3.0, -off, 0.5, l),
+        ),
         (
             "triangle to the side",
-            polygon_light(&[Vec3::new(-0.5, 2.0, 0.5), Vec3::new(0.5, 2.0, 0.8), Vec3::new(0.0, 2.0, 1.8)], l, true),
+            polygon_light(
+                &[
+                    Vec3::new(-0.5, 2.0, 0.5),
+                    Vec3::new(0.5, 2.0, 0.8),
+                    Vec3::new(0.0, 2.0, 1.8),
+                ],
+                l,
+                true,
+            ),
         ),
         (
             "wall straddling the horizon, mirror side",
-            quad_light(Vec3::new(-2.0, 0.0, 0.0), Vec3::new(0.0, 1.5, 0.0), Vec3::new(0.0, 0.0, 1.0), l, false),
+            quad_light(
+                Vec3::new(-2.0, 0.0, 0.0),
+                Vec3::new(0.0, 1.5, 0.0),
+                Vec3::new(0.0, 0.0, 1.0),
+                l,
+                false,
+            ),
         ),
-        ("20x20 ceiling at height 1", facing_square(Vec3::new(0.0, 0.0, 1.0), -Vec3::Z, 10.0, l)),
+        (
+            "20x20 ceiling at height 1",
+            facing_square(Vec3::new(0.0, 0.0, 1.0), -Vec3::Z, 10.0, l),
+        ),
         (
             "long strip low over the mirror side",
-            quad_light(Vec3::new(-4.0, 0.0, 0.5), Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.3, 0.0, 0.0), l, true),
+            quad_light(
+                Vec3::new(-4.0, 0.0, 0.5),
+                Vec3::new(0.0, 2.0, 0.0),
+                Vec3::new(0.3, 0.0, 0.0),
+                l,
+                true,
+            ),
         ),
     ]
 }
@@ -61,7 +96,12 @@ fn lobe_total(roughness: f32, wo: Vec3) -> f32 {
     let mut s = 0.0f64;
     for j in 0..k {
         for i in 0..k {
-            let h = brdf::sample_vndf(a, wo, (i as f32 + 0.5) / k as f32, (j as f32 + 0.5) / k as f32);
+            let h = brdf::sample_vndf(
+                a,
+                wo,
+                (i as f32 + 0.5) / k as f32,
+                (j as f32 + 0.5) / k as f32,
+            );
             let wi = brdf::reflect(wo, h);
             if wi.z > 0.0 {
                 s += (brdf::spec_f1_local(a, wi, wo) * wi.z / brdf::vndf_pdf(a, wi, wo)) as f64;
@@ -138,10 +178,15 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
 
     let worst_ref = cases.iter().map(|c| c.ref_err).fold(0.0, f64::max);
     let evals: usize = cases.iter().map(|c| c.evals).sum();
-    println!("reference quadrature: {evals} evaluations, worst estimated relative error {worst_ref:.1e}");
+    println!(
+        "reference quadrature: {evals} evaluations, worst estimated relative error {worst_ref:.1e}"
+    );
 
     // Lambert: exact up to the quadrature's tolerance.
-    let worst_d = cases.iter().max_by(|a, b| a.diffuse_err.total_cmp(&b.diffuse_err)).unwrap();
+    let worst_d = cases
+        .iter()
+        .max_by(|a, b| a.diffuse_err.total_cmp(&b.diffuse_err))
+        .unwrap();
     println!(
         "Lambert: worst relative error {:.2e} ({} cases; roughness {}, view {} deg, {})",
         worst_d.diffuse_err,
@@ -157,8 +202,15 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
     let minor: Vec<&Case> = cases.iter().filter(|c| c.share < 0.01).collect();
     let report = |name: &str, set: &[&Case]| -> (f32, f32, f32) {
         let mut e: Vec<f32> = set.iter().map(|c| c.spec_err).collect();
-        let (med, p90, max) = (quantile(&mut e, 0.5), quantile(&mut e, 0.9), quantile(&mut e, 1.0));
-        let w = set.iter().max_by(|a, b| a.spec_err.total_cmp(&b.spec_err)).unwrap();
+        let (med, p90, max) = (
+            quantile(&mut e, 0.5),
+            quantile(&mut e, 0.9),
+            quantile(&mut e, 1.0),
+        );
+        let w = set
+            .iter()
+            .max_by(|a, b| a.spec_err.total_cmp(&b.spec_err))
+            .unwrap();
         println!(
             "GGX {name}: {} cases, relative error median {:.4}, p90 {:.4}, max {:.4} (roughness {}, view {} deg, {}, light holds {:.1}% of the lobe)",
             set.len(),
@@ -173,12 +225,24 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
         (med, p90, max)
     };
     let all = report("all significant", &significant);
-    let rough: Vec<&Case> = significant.iter().copied().filter(|c| c.roughness >= 0.2).collect();
+    let rough: Vec<&Case> = significant
+        .iter()
+        .copied()
+        .filter(|c| c.roughness >= 0.2)
+        .collect();
     let rough_stats = report("roughness >= 0.2", &rough);
     let mut per_r = String::new();
     for &r in &ROUGHNESS {
-        let mut e: Vec<f32> = significant.iter().filter(|c| c.roughness == r).map(|c| c.spec_err).collect();
-        per_r += &format!(" r={r}: med {:.4} max {:.4};", quantile(&mut e, 0.5), quantile(&mut e, 1.0));
+        let mut e: Vec<f32> = significant
+            .iter()
+            .filter(|c| c.roughness == r)
+            .map(|c| c.spec_err)
+            .collect();
+        per_r += &format!(
+            " r={r}: med {:.4} max {:.4};",
+            quantile(&mut e, 0.5),
+            quantile(&mut e, 1.0)
+        );
     }
     println!("GGX per roughness:{per_r}");
     let worst_minor = minor.iter().map(|c| c.spec_err_of_lobe).fold(0.0, f32::max);
@@ -188,7 +252,15 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
         worst_minor
     );
 
-    assert!(worst_d.diffuse_err <= 1e-4, "Lambert error {}", worst_d.diffuse_err);
-    assert!(rough_stats.0 <= 0.01, "median relative error for roughness >= 0.2: {}", rough_stats.0);
+    assert!(
+        worst_d.diffuse_err <= 1e-4,
+        "Lambert error {}",
+        worst_d.diffuse_err
+    );
+    assert!(
+        rough_stats.0 <= 0.01,
+        "median relative error for roughness >= 0.2: {}",
+        rough_stats.0
+    );
     let _ = all;
 }

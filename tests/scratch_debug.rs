@@ -5,7 +5,13 @@ use std::f64::consts::PI;
 #[test]
 fn debug_cell() {
     let t = ltc::table();
-    for &(r, th) in &[(0.5f32, 0.0f32), (0.5, 45.0), (0.5, 89.0), (1.0, 0.0), (0.2, 30.0)] {
+    for &(r, th) in &[
+        (0.5f32, 0.0f32),
+        (0.5, 45.0),
+        (0.5, 89.0),
+        (1.0, 0.0),
+        (0.2, 30.0),
+    ] {
         let c = th.to_radians().cos();
         let cell = t.lookup(r, c);
         let mi = cell.inv_matrix();
@@ -25,7 +31,11 @@ fn debug_cell() {
                 let b = (brdf::spec_f1_local(a, w.as_vec3(), v) as f64) * z;
                 let wl = mi * w;
                 let len = wl.length();
-                let d = if wl.z > 0.0 { wl.z / len / PI * det / len.powi(3) } else { 0.0 };
+                let d = if wl.z > 0.0 {
+                    wl.z / len / PI * det / len.powi(3)
+                } else {
+                    0.0
+                };
                 let l = cell.mag as f64 * d / cell.hmass as f64;
                 l1 += (b - l).abs() * dw;
                 tot_b += b * dw;
@@ -33,6 +43,10 @@ fn debug_cell() {
                 tot_l_all += d * dw;
             }
         }
-        println!("r {r} th {th}: cell {:?}\n   brute mag {tot_b:.5} ltc-mass-upper {tot_l:.5} rawmass_upper {tot_l_all:.5} L1rel {:.4}", cell, l1 / tot_b);
+        println!(
+            "r {r} th {th}: cell {:?}\n   brute mag {tot_b:.5} ltc-mass-upper {tot_l:.5} rawmass_upper {tot_l_all:.5} L1rel {:.4}",
+            cell,
+            l1 / tot_b
+        );
     }
 }

@@ -65,10 +65,15 @@ fn undenoised_ratio_converges_to_reference() {
 fn ratio_equals_unshadowed_without_occluders() {
     let mut scene = load("shadow-plane.toml");
     // Drop the occluder bar; the three receivers cannot shadow each other.
-    scene.meshes.retain(|m| scene.materials[m.material as usize].name != "occluder");
+    scene
+        .meshes
+        .retain(|m| scene.materials[m.material as usize].name != "occluder");
     let ratio = render(&scene, &job(Mode::Ratio, 1, 0));
     let unshadowed = render(&scene, &job(Mode::Unshadowed, 1, 0));
-    assert_eq!(common::color_bytes(&ratio), common::color_bytes(&unshadowed));
+    assert_eq!(
+        common::color_bytes(&ratio),
+        common::color_bytes(&unshadowed)
+    );
 }
 
 #[test]
@@ -96,14 +101,22 @@ fn soft_shadow_is_wrong_on_glossy_receivers_and_ratio_is_not() {
     let material = |name: &str| scene.materials.iter().position(|m| m.name == name).unwrap() as u32;
     for (name, glossy) in [("diffuse", false), ("glossy", true), ("mirror", true)] {
         let id = material(name);
-        let on = |k: usize| inside[k] && ratio.gbuf[k].kind == PixelKind::Surface && ratio.gbuf[k].material == id;
+        let on = |k: usize| {
+            inside[k] && ratio.gbuf[k].kind == PixelKind::Surface && ratio.gbuf[k].material == id
+        };
         let e_ratio = rel_mse_where(&ratio, &reference, on);
         let e_soft = rel_mse_where(&soft, &reference, on);
         println!("{name:>8}: relMSE ratio {e_ratio:.2e}, soft-shadow {e_soft:.2e}");
         if glossy {
-            assert!(e_soft > 5.0 * e_ratio, "{name}: soft-shadow {e_soft} vs ratio {e_ratio}");
+            assert!(
+                e_soft > 5.0 * e_ratio,
+                "{name}: soft-shadow {e_soft} vs ratio {e_ratio}"
+            );
         } else {
-            assert!(e_ratio < 2e-3 && e_soft < 5e-3, "{name}: ratio {e_ratio}, soft-shadow {e_soft}");
+            assert!(
+                e_ratio < 2e-3 && e_soft < 5e-3,
+                "{name}: ratio {e_ratio}, soft-shadow {e_soft}"
+            );
         }
     }
 }
@@ -115,20 +128,35 @@ fn at_one_spp_ratio_beats_stochastic_on_room() {
     let ratio = rel_mse(&render(&scene, &job(Mode::Ratio, 1, 1)), &reference);
     let stochastic = rel_mse(&render(&scene, &job(Mode::Stochastic, 1, 1)), &reference);
     println!("room, 1 spp, undenoised: relMSE ratio {ratio:.3e}, stochastic {stochastic:.3e}");
-    assert!(ratio < stochastic, "ratio {ratio} vs stochastic {stochastic}");
+    assert!(
+        ratio < stochastic,
+        "ratio {ratio} vs stochastic {stochastic}"
+    );
 }
 
 #[test]
 fn no_aov_has_nan_or_inf_on_any_shipped_scene() {
     use penumbra::output::Aov;
-    for name in ["default.toml", "shadow-plane.toml", "room.toml", "many-tris.toml"] {
+    for name in [
+        "default.toml",
+        "shadow-plane.toml",
+        "room.toml",
+        "many-tris.toml",
+    ] {
         let scene = load(name);
         for mode in Mode::ALL {
             let f = render(&scene, &job(mode, 2, 0));
-            assert!(f.color.iter().all(|c| c.is_finite()), "{name} {mode}: colour");
+            assert!(
+                f.color.iter().all(|c| c.is_finite()),
+                "{name} {mode}: colour"
+            );
             for aov in Aov::ALL {
                 let values = aov.values(&f);
-                assert!(values.iter().all(|v| v.is_finite()), "{name} {mode}: {}", aov.name());
+                assert!(
+                    values.iter().all(|v| v.is_finite()),
+                    "{name} {mode}: {}",
+                    aov.name()
+                );
             }
         }
     }

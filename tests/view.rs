@@ -20,6 +20,8 @@ fn a_scripted_window_shows_what_render_writes() {
             "-screen 0 640x480x24",
             bin,
             "view",
+            "--mode",
+            "unshadowed",
             "--width",
             "160",
             "--height",
@@ -35,7 +37,16 @@ fn a_scripted_window_shows_what_render_writes() {
         String::from_utf8_lossy(&view.stderr)
     );
     let render = Command::new(bin)
-        .args(["render", "--width", "160", "--height", "90", "--out"])
+        .args([
+            "render",
+            "--mode",
+            "unshadowed",
+            "--width",
+            "160",
+            "--height",
+            "90",
+            "--out",
+        ])
         .arg(&rendered)
         .status()
         .unwrap();

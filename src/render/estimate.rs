@@ -71,8 +71,20 @@ pub fn analytic_u(world: &World, g: &GSample, per_light: &mut [Vec3]) -> Vec3 {
 fn pick_light(per_light: &[Vec3], xi: f32) -> (usize, f32) {
     let n = per_light.len();
     let total: f32 = per_light.iter().map(|u| u.dot(LUMA)).sum();
-    let uniform = if total > 0.0 { UNIFORM_LIGHT_SHARE } else { 1.0 };
-    let prob = |u: Vec3| uniform / n as f32 + (1.0 - uniform) * if total > 0.0 { u.dot(LUMA) / total } else { 0.0 };
+    let uniform = if total > 0.0 {
+        UNIFORM_LIGHT_SHARE
+    } else {
+        1.0
+    };
+    let prob = |u: Vec3| {
+        uniform / n as f32
+            + (1.0 - uniform)
+                * if total > 0.0 {
+                    u.dot(LUMA) / total
+                } else {
+                    0.0
+                }
+    };
     let mut acc = 0.0;
     for (k, u) in per_light.iter().enumerate() {
         let p = prob(*u);
@@ -195,6 +207,12 @@ pub fn draw_samples(
 /// its visibility, and the frame falls back to the analytic `U`.
 #[inline]
 pub fn ratio(sn: Vec3, un: Vec3) -> Vec3 {
-    let r = |s: f32, u: f32| if u > 1e-20 { (s / u).clamp(0.0, 1.0) } else { 1.0 };
+    let r = |s: f32, u: f32| {
+        if u > 1e-20 {
+            (s / u).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    };
     Vec3::new(r(sn.x, un.x), r(sn.y, un.y), r(sn.z, un.z))
 }

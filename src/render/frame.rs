@@ -3,13 +3,13 @@
 //! frame (previous camera, reference accumulation) lives here too.
 
 use super::estimate::{Estimator, analytic_u, draw_samples, ratio};
-use super::shadow::{PacketWidth, ShadowBatch};
 use super::gbuffer::{GSample, PixelKind};
 use super::mode::Mode;
 use super::primary::{PACKET_H, PixelOffset, trace_rows};
+use super::shadow::{PacketWidth, ShadowBatch};
 use super::world::World;
-use crate::scene::{Camera, CameraFrame};
 use crate::denoise::{DenoiseSettings, Denoiser, GuideBuffers};
+use crate::scene::{Camera, CameraFrame};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -143,10 +143,18 @@ impl Frame {
 
     /// Renders one frame of `camera` into the buffers. Must run inside the
     /// rayon pool that should do the work.
-    pub fn render(&mut self, world: &World, camera: &Camera, settings: &RenderSettings) -> PhaseTimes {
+    pub fn render(
+        &mut self,
+        world: &World,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> PhaseTimes {
         let start = Instant::now();
         let cam = camera.frame(self.width, self.height);
-        let prev = self.prev_camera.unwrap_or(*camera).frame(self.width, self.height);
+        let prev = self
+            .prev_camera
+            .unwrap_or(*camera)
+            .frame(self.width, self.height);
         if settings.mode == Mode::Reference && self.prev_camera.is_some_and(|c| c != *camera) {
             self.accum.clear();
             self.accum_spp = 0;
@@ -156,7 +164,9 @@ impl Frame {
         match settings.mode {
             Mode::Reference => self.render_reference(world, &cam, settings, &clock),
             Mode::Unshadowed => self.render_direct(world, &cam, &prev, settings, &clock, true),
-            _ if !settings.denoise => self.render_direct(world, &cam, &prev, settings, &clock, true),
+            _ if !settings.denoise => {
+                self.render_direct(world, &cam, &prev, settings, &clock, true)
+            }
             _ => {
                 self.render_direct(world, &cam, &prev, settings, &clock, false);
                 let t = Instant::now();
@@ -199,57 +209,71 @@ impl Frame {
             Mode::Unshadowed | Mode::Reference => None,
         };
         let first_sample = self.frame_index.wrapping_mul(settings.spp);
-        self.bands().into_par_iter().for_each_init(BandScratch::default, |scratch, mut band| {
-            let t = Instant::now();
-            trace_rows(world, cam, prev, band.y0, PixelOffset::Centre, band.gbuf);
-            let t = PhaseClock::add(&clock.primary, t);
-            let n = band.gbuf.len();
-            scratch.per_light.resize(n * lights, Vec3::ZERO);
-            for (k, (g, u)) in band.gbuf.iter().zip(band.u.iter_mut()).enumerate() {
-                *u = analytic_u(world, g, &mut scratch.per_light[k * lights..(k + 1) * lights]);
-            }
-            let t = PhaseClock::add(&clock.u, t);
-            band.un.fill(Vec3::ZERO);
-            band.sn.fill(Vec3::ZERO);
-            let t = if let Some(est) = estimator {
-                scratch.batch.clear();
-                for (k, g) in band.gbuf.iter().enumerate() {
-                    draw_samples(
+        self.bands()
+            .into_par_iter()
+            .for_each_init(BandScratch::default, |scratch, mut band| {
+                let t = Instant::now();
+                trace_rows(world, cam, prev, band.y0, PixelOffset::Centre, band.gbuf);
+                let t = PhaseClock::add(&clock.primary, t);
+                let n = band.gbuf.len();
+                scratch.per_light.resize(n * lights, Vec3::ZERO);
+                for (k, (g, u)) in band.gbuf.iter().zip(band.u.iter_mut()).enumerate() {
+                    *u = analytic_u(
                         world,
                         g,
-                        &scratch.per_light[k * lights..(k + 1) * lights],
-                        band.u[k],
-                        est,
-                        (band.y0 * width + k as u32, first_sample, settings.seed),
-                        settings.spp,
-                        k as u32,
-                        &mut band.un[k],
-                        &mut scratch.batch,
+                        &mut scratch.per_light[k * lights..(k + 1) * lights],
                     );
                 }
-                let sn = &mut *band.sn;
-                scratch.batch.trace(&world.rt, settings.packet, |r| sn[r.slot as usize] += r.weight);
-                PhaseClock::add(&clock.shadow, t)
-            } else {
-                t
-            };
-            if composite {
-                for k in 0..n {
-                    band.color[k] = shade(settings.mode, &band.gbuf[k], band.u[k], band.un[k], band.sn[k]);
+                let t = PhaseClock::add(&clock.u, t);
+                band.un.fill(Vec3::ZERO);
+                band.sn.fill(Vec3::ZERO);
+                let t = if let Some(est) = estimator {
+                    scratch.batch.clear();
+                    for (k, g) in band.gbuf.iter().enumerate() {
+                        draw_samples(
+                            world,
+                            g,
+                            &scratch.per_light[k * lights..(k + 1) * lights],
+                            band.u[k],
+                            est,
+                            (band.y0 * width + k as u32, first_sample, settings.seed),
+                            settings.spp,
+                            k as u32,
+                            &mut band.un[k],
+                            &mut scratch.batch,
+                        );
+                    }
+                    let sn = &mut *band.sn;
+                    scratch.batch.trace(&world.rt, settings.packet, |r| {
+                        sn[r.slot as usize] += r.weight
+                    });
+                    PhaseClock::add(&clock.shadow, t)
+                } else {
+                    t
+                };
+                if composite {
+                    for k in 0..n {
+                        band.color[k] = shade(
+                            settings.mode,
+                            &band.gbuf[k],
+                            band.u[k],
+                            band.un[k],
+                            band.sn[k],
+                        );
+                    }
+                } else {
+                    for (k, g) in band.gbuf.iter().enumerate() {
+                        band.guide.set(k, g);
+                    }
+                    if settings.mode == Mode::Stochastic {
+                        // The full Monte Carlo signal is filtered as `S_N` over the
+                        // noise-free `U`: its whole noise, not only visibility's,
+                        // then drives the filter (a fair "option 2").
+                        band.un.copy_from_slice(band.u);
+                    }
                 }
-            } else {
-                for (k, g) in band.gbuf.iter().enumerate() {
-                    band.guide.set(k, g);
-                }
-                if settings.mode == Mode::Stochastic {
-                    // The full Monte Carlo signal is filtered as `S_N` over the
-                    // noise-free `U`: its whole noise, not only visibility's,
-                    // then drives the filter (a fair "option 2").
-                    band.un.copy_from_slice(band.u);
-                }
-            }
-            PhaseClock::add(&clock.composite, t);
-        });
+                PhaseClock::add(&clock.composite, t);
+            });
     }
 
     /// Splits every per-pixel buffer into the same bands of rows.
@@ -263,13 +287,15 @@ impl Frame {
             .zip(g.depth.chunks_mut(n))
             .zip(g.prev_pixel.chunks_mut(n))
             .zip(g.prev_valid.chunks_mut(n))
-            .map(|((((position, normal), depth), prev_pixel), prev_valid)| GuideMut {
-                position,
-                normal,
-                depth,
-                prev_pixel,
-                prev_valid,
-            });
+            .map(
+                |((((position, normal), depth), prev_pixel), prev_valid)| GuideMut {
+                    position,
+                    normal,
+                    depth,
+                    prev_pixel,
+                    prev_valid,
+                },
+            );
         self.gbuf
             .chunks_mut(n)
             .zip(self.u.chunks_mut(n))
@@ -300,8 +326,12 @@ impl Frame {
             prev_valid: &self.guide.prev_valid,
             u: &self.u,
         };
-        self.denoiser
-            .denoise(&guide, &mut self.un, &mut self.sn, &DenoiseSettings::default());
+        self.denoiser.denoise(
+            &guide,
+            &mut self.un,
+            &mut self.sn,
+            &DenoiseSettings::default(),
+        );
     }
 
     fn composite(&mut self, mode: Mode) {
@@ -316,7 +346,13 @@ impl Frame {
 
     /// Adds `settings.spp` jittered samples of the full MIS estimator per
     /// pixel to the running average.
-    fn render_reference(&mut self, world: &World, cam: &CameraFrame, settings: &RenderSettings, clock: &PhaseClock) {
+    fn render_reference(
+        &mut self,
+        world: &World,
+        cam: &CameraFrame,
+        settings: &RenderSettings,
+        clock: &PhaseClock,
+    ) {
         let n = self.pixel_count();
         if self.accum.len() != n {
             self.accum = vec![Vec3::ZERO; n];
@@ -333,49 +369,64 @@ impl Frame {
             .zip(self.sn.par_chunks_mut(band))
             .zip(self.accum.par_chunks_mut(band))
             .enumerate()
-            .for_each_init(BandScratch::default, |scratch, (b, ((((gbuf, u), un), sn), accum))| {
-                let y0 = b as u32 * BAND_ROWS;
-                scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
-                for s in 0..settings.spp {
-                    let index = first.wrapping_add(s);
-                    let t = Instant::now();
-                    let jitter = PixelOffset::Jitter { seed: settings.seed, sample: index };
-                    // The reference never reprojects: the camera is its own previous camera.
-                    trace_rows(world, cam, cam, y0, jitter, gbuf);
-                    let t = PhaseClock::add(&clock.primary, t);
-                    for (k, (g, u)) in gbuf.iter().zip(u.iter_mut()).enumerate() {
-                        *u = analytic_u(world, g, &mut scratch.per_light[k * lights..(k + 1) * lights]);
+            .for_each_init(
+                BandScratch::default,
+                |scratch, (b, ((((gbuf, u), un), sn), accum))| {
+                    let y0 = b as u32 * BAND_ROWS;
+                    scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
+                    for s in 0..settings.spp {
+                        let index = first.wrapping_add(s);
+                        let t = Instant::now();
+                        let jitter = PixelOffset::Jitter {
+                            seed: settings.seed,
+                            sample: index,
+                        };
+                        // The reference never reprojects: the camera is its own previous camera.
+                        trace_rows(world, cam, cam, y0, jitter, gbuf);
+                        let t = PhaseClock::add(&clock.primary, t);
+                        for (k, (g, u)) in gbuf.iter().zip(u.iter_mut()).enumerate() {
+                            *u = analytic_u(
+                                world,
+                                g,
+                                &mut scratch.per_light[k * lights..(k + 1) * lights],
+                            );
+                        }
+                        let t = PhaseClock::add(&clock.u, t);
+                        un.fill(Vec3::ZERO);
+                        sn.fill(Vec3::ZERO);
+                        scratch.batch.clear();
+                        for (k, g) in gbuf.iter().enumerate() {
+                            let pixel = y0 * width + k as u32;
+                            draw_samples(
+                                world,
+                                g,
+                                &scratch.per_light[k * lights..(k + 1) * lights],
+                                u[k],
+                                Estimator::Mis,
+                                (pixel, index, settings.seed),
+                                1,
+                                k as u32,
+                                &mut un[k],
+                                &mut scratch.batch,
+                            );
+                        }
+                        scratch.batch.trace(&world.rt, settings.packet, |r| {
+                            sn[r.slot as usize] += r.weight
+                        });
+                        let t = PhaseClock::add(&clock.shadow, t);
+                        for k in 0..gbuf.len() {
+                            accum[k] += finite_or_zero(gbuf[k].emission + sn[k]);
+                        }
+                        PhaseClock::add(&clock.composite, t);
                     }
-                    let t = PhaseClock::add(&clock.u, t);
-                    un.fill(Vec3::ZERO);
-                    sn.fill(Vec3::ZERO);
-                    scratch.batch.clear();
-                    for (k, g) in gbuf.iter().enumerate() {
-                        let pixel = y0 * width + k as u32;
-                        draw_samples(
-                            world,
-                            g,
-                            &scratch.per_light[k * lights..(k + 1) * lights],
-                            u[k],
-                            Estimator::Mis,
-                            (pixel, index, settings.seed),
-                            1,
-                            k as u32,
-                            &mut un[k],
-                            &mut scratch.batch,
-                        );
-                    }
-                    scratch.batch.trace(&world.rt, settings.packet, |r| sn[r.slot as usize] += r.weight);
-                    let t = PhaseClock::add(&clock.shadow, t);
-                    for k in 0..gbuf.len() {
-                        accum[k] += finite_or_zero(gbuf[k].emission + sn[k]);
-                    }
-                    PhaseClock::add(&clock.composite, t);
-                }
-            });
+                },
+            );
         self.accum_spp += settings.spp;
         let inv = 1.0 / self.accum_spp as f32;
-        self.color.par_iter_mut().zip(&self.accum).for_each(|(c, a)| *c = *a * inv);
+        self.color
+            .par_iter_mut()
+            .zip(&self.accum)
+            .for_each(|(c, a)| *c = *a * inv);
     }
 
     /// Whether pixel `k` shows a receiver surface.

@@ -56,7 +56,10 @@ impl FromStr for Mode {
             .find(|m| m.name() == s)
             .ok_or_else(|| {
                 let names: Vec<_> = Mode::ALL.iter().map(|m| m.name()).collect();
-                format!("unknown mode \"{s}\" (expected one of: {})", names.join(", "))
+                format!(
+                    "unknown mode \"{s}\" (expected one of: {})",
+                    names.join(", ")
+                )
             })
     }
 }

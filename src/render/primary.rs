@@ -24,7 +24,9 @@ impl PixelOffset {
     fn at(self, pixel: u32) -> Vec2 {
         match self {
             PixelOffset::Centre => Vec2::splat(0.5),
-            PixelOffset::Jitter { seed, sample } => super::hash::unit2(pixel, sample, seed ^ 0x6a09_e667),
+            PixelOffset::Jitter { seed, sample } => {
+                super::hash::unit2(pixel, sample, seed ^ 0x6a09_e667)
+            }
         }
     }
 }

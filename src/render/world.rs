@@ -25,7 +25,8 @@ impl<'d> World<'d> {
         let mut builder = SceneBuilder::new(device)?;
         let mut geoms = Vec::with_capacity(scene.meshes.len() + scene.lights.len());
         for (i, mesh) in scene.meshes.iter().enumerate() {
-            let id = builder.add_triangles(&mesh.positions, &mesh.indices, GeometryRole::Occluder)?;
+            let id =
+                builder.add_triangles(&mesh.positions, &mesh.indices, GeometryRole::Occluder)?;
             debug_assert_eq!(id as usize, geoms.len());
             geoms.push(GeomRef::Mesh(i as u32));
         }

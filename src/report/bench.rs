@@ -56,7 +56,9 @@ pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result
                 .map(|_| pool.install(|| frame.render(&world, &camera, &settings)))
                 .collect();
             let wall = median(&runs.iter().map(|r| r.wall).collect::<Vec<_>>());
-            let stage = |f: fn(&PhaseTimes) -> f64| median(&runs.iter().map(f).collect::<Vec<_>>()) / t as f64 * 1e3;
+            let stage = |f: fn(&PhaseTimes) -> f64| {
+                median(&runs.iter().map(f).collect::<Vec<_>>()) / t as f64 * 1e3
+            };
             let label = format!("{}{}", mode.name(), if denoise { "+dn" } else { "" });
             writeln!(
                 out,
@@ -87,7 +89,11 @@ pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result
         )?;
     }
     if let [one, all] = frame_ms[..] {
-        writeln!(out, "ratio+dn speed-up, {threads} threads over 1: {:.2}x", one / all)?;
+        writeln!(
+            out,
+            "ratio+dn speed-up, {threads} threads over 1: {:.2}x",
+            one / all
+        )?;
     }
     Ok(out)
 }

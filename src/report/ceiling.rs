@@ -37,7 +37,13 @@ fn camera_packets(camera: &Camera, width: u32, height: u32) -> Vec<Rays16> {
             for lane in 0..16u32 {
                 let (i, j) = (px + lane % PACKET_W, py + lane / PACKET_W);
                 if i < width && j < height {
-                    rays.set(lane as usize, cam.eye, cam.ray_dir(i, j, 0.5, 0.5), 0.0, f32::INFINITY);
+                    rays.set(
+                        lane as usize,
+                        cam.eye,
+                        cam.ray_dir(i, j, 0.5, 0.5),
+                        0.0,
+                        f32::INFINITY,
+                    );
                 }
             }
             packets.push(rays);
@@ -51,7 +57,10 @@ fn camera_packets(camera: &Camera, width: u32, height: u32) -> Vec<Rays16> {
 pub fn ray_ceiling(world: &World, camera: &Camera, width: u32, height: u32, spp: u32) -> Ceiling {
     let packets = camera_packets(camera, width, height);
     let start = Instant::now();
-    let hits: Vec<_> = packets.par_iter().map(|r| world.rt.intersect16(r, true)).collect();
+    let hits: Vec<_> = packets
+        .par_iter()
+        .map(|r| world.rt.intersect16(r, true))
+        .collect();
     let primary = start.elapsed().as_secs_f64();
 
     let lights = &world.scene.lights;
@@ -88,7 +97,10 @@ pub fn ray_ceiling(world: &World, camera: &Camera, width: u32, height: u32, spp:
         })
         .collect();
     let start = Instant::now();
-    let occluded: u32 = shadow_packets.par_iter().map(|r| world.rt.occluded16(r).count_ones()).sum();
+    let occluded: u32 = shadow_packets
+        .par_iter()
+        .map(|r| world.rt.occluded16(r).count_ones())
+        .sum();
     let shadow = start.elapsed().as_secs_f64();
     std::hint::black_box(occluded);
     Ceiling {

@@ -64,11 +64,7 @@ pub struct Ltc {
 impl Ltc {
     pub fn new(m11: f64, m22: f64, m13: f64, phi: f64) -> Ltc {
         let (s, c) = phi.sin_cos();
-        let r = DMat3::from_cols(
-            DVec3::new(c, 0.0, -s),
-            DVec3::Y,
-            DVec3::new(s, 0.0, c),
-        );
+        let r = DMat3::from_cols(DVec3::new(c, 0.0, -s), DVec3::Y, DVec3::new(s, 0.0, c));
         let sh = DMat3::from_cols(
             DVec3::new(m11.abs().max(1e-7), 0.0, 0.0),
             DVec3::new(0.0, m22.abs().max(1e-7), 0.0),
@@ -232,16 +228,33 @@ fn fit_cell(roughness: f32, cos_view: f32, seed: Option<[f64; 3]>) -> (LtcCell, 
     let lobe = Lobe::new(alpha, cos_view);
     let samples = lobe.brdf_samples(K_FIT);
     let phi = lobe.phi;
-    let err3 = |p: [f64; 3]| lobe.error(&Ltc::new(p[0], p[1], p[2], phi), &samples, K_FIT, ERROR_POWER);
+    let err3 = |p: [f64; 3]| {
+        lobe.error(
+            &Ltc::new(p[0], p[1], p[2], phi),
+            &samples,
+            K_FIT,
+            ERROR_POWER,
+        )
+    };
     let params = match seed {
         None => {
             let a = alpha as f64;
-            let (p, _) = nelder_mead::minimize(|p: &[f64; 1]| err3([p[0], p[0], 0.0]), [a], [0.3 * a], FTOL, EVALS_ISO);
+            let (p, _) = nelder_mead::minimize(
+                |p: &[f64; 1]| err3([p[0], p[0], 0.0]),
+                [a],
+                [0.3 * a],
+                FTOL,
+                EVALS_ISO,
+            );
             [p[0].abs(), p[0].abs(), 0.0]
         }
         Some(s) => {
             let scale = s[0].abs().max(s[1].abs()).max(1e-6);
-            let step = [0.1 * s[0].abs().max(0.1 * scale), 0.1 * s[1].abs().max(0.1 * scale), 0.1 * scale];
+            let step = [
+                0.1 * s[0].abs().max(0.1 * scale),
+                0.1 * s[1].abs().max(0.1 * scale),
+                0.1 * scale,
+            ];
             let (p, _) = nelder_mead::minimize(|p: &[f64; 3]| err3(*p), s, step, FTOL, EVALS_ANISO);
             [p[0].abs(), p[1].abs(), p[2]]
         }
@@ -322,7 +335,10 @@ pub fn fit_error_heatmap(table: &LtcTable, path: &Path) -> image::ImageResult<()
     const PX: u32 = 8;
     let n = table.size as u32;
     let img = image::RgbImage::from_fn(n * PX, n * PX, |x, y| {
-        let e = table.cell((x / PX) as usize, (y / PX) as usize).err.max(1e-6);
+        let e = table
+            .cell((x / PX) as usize, (y / PX) as usize)
+            .err
+            .max(1e-6);
         let t = ((e.log10() + 3.0) / 3.0).clamp(0.0, 1.0);
         // Blue -> cyan -> yellow -> red.
         let (r, g, b) = if t < 1.0 / 3.0 {
@@ -351,7 +367,12 @@ pub fn run_fit(size: usize, out: &Path, heatmap: Option<&Path>) -> anyhow::Resul
         if last.swap(pct, Ordering::Relaxed) != pct {
             let bar = done * 40 / total;
             let mut err = std::io::stderr().lock();
-            let _ = write!(err, "\r[{}{}] {pct:3}%", "#".repeat(bar), " ".repeat(40 - bar));
+            let _ = write!(
+                err,
+                "\r[{}{}] {pct:3}%",
+                "#".repeat(bar),
+                " ".repeat(40 - bar)
+            );
             let _ = err.flush();
         }
     });
@@ -360,8 +381,7 @@ pub fn run_fit(size: usize, out: &Path, heatmap: Option<&Path>) -> anyhow::Resul
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }
-    std::fs::write(out, table.to_bytes())
-        .map_err(|e| anyhow::anyhow!("{}: {e}", out.display()))?;
+    std::fs::write(out, table.to_bytes()).map_err(|e| anyhow::anyhow!("{}: {e}", out.display()))?;
     let (med, p90, max, (wr, wt)) = error_summary(&table);
     eprintln!(
         "fitted {size}x{size} LTC table in {secs:.1} s ({} threads) -> {}",

@@ -14,6 +14,8 @@ pub struct Flyer {
     pub fov_y: f32,
     /// Scene units per second.
     pub speed: f32,
+    /// The scene's camera, shown exactly until the user first moves.
+    start: Option<Camera>,
 }
 
 impl Flyer {
@@ -28,6 +30,7 @@ impl Flyer {
             focus,
             fov_y: c.fov_y,
             speed: focus * 0.5,
+            start: Some(*c),
         }
     }
 
@@ -38,6 +41,9 @@ impl Flyer {
     }
 
     pub fn camera(&self) -> Camera {
+        if let Some(c) = self.start {
+            return c;
+        }
         Camera {
             eye: self.eye,
             target: self.eye + self.forward() * self.focus,
@@ -48,6 +54,10 @@ impl Flyer {
 
     /// Moves by (right, up, forward) in camera axes, scaled by speed and dt.
     pub fn travel(&mut self, right: f32, up: f32, forward: f32, dt: f32) {
+        if right == 0.0 && up == 0.0 && forward == 0.0 {
+            return;
+        }
+        self.start = None;
         let f = self.forward();
         let r = f.cross(Vec3::Y).normalize_or(Vec3::X);
         self.eye += (r * right + Vec3::Y * up + f * forward) * self.speed * dt;
@@ -56,6 +66,10 @@ impl Flyer {
     /// Turns by angles in radians; pitch stays short of the poles so the
     /// camera's up vector is never parallel to the view.
     pub fn look(&mut self, d_yaw: f32, d_pitch: f32) {
+        if d_yaw == 0.0 && d_pitch == 0.0 {
+            return;
+        }
+        self.start = None;
         self.yaw -= d_yaw;
         self.pitch = (self.pitch + d_pitch).clamp(-1.5, 1.5);
     }

@@ -34,7 +34,9 @@ const MODE_KEYS: [(Key, Mode); 5] = [
 
 pub fn run(opts: ViewOptions) -> Result<()> {
     if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
-        bail!("no display to open a window on (DISPLAY is not set); use `penumbra render SCENE --out frame.png` instead");
+        bail!(
+            "no display to open a window on (DISPLAY is not set); use `penumbra render SCENE --out frame.png` instead"
+        );
     }
     let scene = match &opts.scene {
         Some(p) => Scene::load(p)?,
@@ -44,13 +46,21 @@ pub fn run(opts: ViewOptions) -> Result<()> {
     let h = opts.height.unwrap_or(scene.height);
     crate::scene::check_resolution(w, h).map_err(anyhow::Error::msg)?;
     let mut window = Window::new("penumbra", w as usize, h as usize, WindowOptions::default())
-        .map_err(|e| anyhow::anyhow!("cannot open a window ({e}); use `penumbra render SCENE --out frame.png` instead"))?;
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "cannot open a window ({e}); use `penumbra render SCENE --out frame.png` instead"
+            )
+        })?;
     let device = Device::new().context("starting Embree")?;
     let mut flyer = Flyer::from_camera(&scene.camera);
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
     let pool = embree::thread_pool(opts.threads)?;
     let mut settings = RenderSettings {
-        mode: if opts.mode.available() { opts.mode } else { Mode::Unshadowed },
+        mode: if opts.mode.available() {
+            opts.mode
+        } else {
+            Mode::Unshadowed
+        },
         spp: opts.spp,
         seed: opts.seed,
         denoise: opts.denoise,
@@ -72,9 +82,19 @@ pub fn run(opts: ViewOptions) -> Result<()> {
                 frame.reset_history();
             }
         }
-        let axis = |a: Key, b: Key| window.is_key_down(a) as i32 as f32 - window.is_key_down(b) as i32 as f32;
-        flyer.travel(axis(Key::D, Key::A), axis(Key::E, Key::Q), axis(Key::W, Key::S), dt);
-        flyer.look(axis(Key::Right, Key::Left) * dt * 1.5, axis(Key::Up, Key::Down) * dt * 1.5);
+        let axis = |a: Key, b: Key| {
+            window.is_key_down(a) as i32 as f32 - window.is_key_down(b) as i32 as f32
+        };
+        flyer.travel(
+            axis(Key::D, Key::A),
+            axis(Key::E, Key::Q),
+            axis(Key::W, Key::S),
+            dt,
+        );
+        flyer.look(
+            axis(Key::Right, Key::Left) * dt * 1.5,
+            axis(Key::Up, Key::Down) * dt * 1.5,
+        );
         let mouse = window.get_mouse_pos(MouseMode::Pass);
         if window.get_mouse_down(MouseButton::Left) {
             if let (Some((x0, y0)), Some((x, y))) = (last_mouse, mouse) {

@@ -99,7 +99,12 @@ impl Setup {
         let m01 = (t[0] + t[1]) * 0.5;
         let m12 = (t[1] + t[2]) * 0.5;
         let m20 = (t[2] + t[0]) * 0.5;
-        [[t[0], m01, m20], [m01, t[1], m12], [m20, m12, t[2]], [m01, m12, m20]]
+        [
+            [t[0], m01, m20],
+            [m01, t[1], m12],
+            [m20, m12, t[2]],
+            [m01, m12, m20],
+        ]
     }
 
     /// A triangle with its rule value and the value of its 4 children.
@@ -112,7 +117,16 @@ impl Setup {
                 fine[c] += v[c];
             }
         }
-        Node { t, fine, diff: (0..3).map(|c| (fine[c] - whole[c]).abs()).collect::<Vec<_>>().try_into().unwrap(), key: 0.0 }
+        Node {
+            t,
+            fine,
+            diff: (0..3)
+                .map(|c| (fine[c] - whole[c]).abs())
+                .collect::<Vec<_>>()
+                .try_into()
+                .unwrap(),
+            key: 0.0,
+        }
     }
 }
 
@@ -193,7 +207,12 @@ pub fn reference(sp: &SurfacePoint, light: &Light, rel_tol: f64) -> Reference {
             let m01 = (t[0] + t[1]) * 0.5;
             let m12 = (t[1] + t[2]) * 0.5;
             let m20 = (t[2] + t[0]) * 0.5;
-            next.extend([[t[0], m01, m20], [m01, t[1], m12], [m20, m12, t[2]], [m01, m12, m20]]);
+            next.extend([
+                [t[0], m01, m20],
+                [m01, t[1], m12],
+                [m20, m12, t[2]],
+                [m01, m12, m20],
+            ]);
         }
         tris = next;
     }
@@ -209,7 +228,13 @@ pub fn reference(sp: &SurfacePoint, light: &Light, rel_tol: f64) -> Reference {
             total[c] += nd.fine[c];
         }
     }
-    let scale = total.map(|v| if v.abs() > 1e-14 { v.abs() } else { f64::INFINITY });
+    let scale = total.map(|v| {
+        if v.abs() > 1e-14 {
+            v.abs()
+        } else {
+            f64::INFINITY
+        }
+    });
     let key = |nd: &Node| (0..3).map(|c| nd.diff[c] / scale[c]).fold(0.0, f64::max);
     let mut err_sum = 0.0;
     for nd in &mut nodes {
@@ -262,7 +287,11 @@ pub fn polygon_light(vertices: &[Vec3], radiance: Vec3, two_sided: bool) -> Ligh
 
 /// A parallelogram light with corners c ± u ± v, emitting along u × v.
 pub fn quad_light(c: Vec3, u: Vec3, v: Vec3, radiance: Vec3, two_sided: bool) -> Light {
-    let mut l = polygon_light(&[c - u - v, c + u - v, c + u + v, c - u + v], radiance, two_sided);
+    let mut l = polygon_light(
+        &[c - u - v, c + u - v, c + u + v, c - u + v],
+        radiance,
+        two_sided,
+    );
     l.quad = Some((c, u, v));
     l
 }
