@@ -1,14 +1,19 @@
 //! Per-light, per-shading-point sampling: which strategy (spherical rectangle,
 //! fan of spherical triangles, or area sampling for tiny solid angles) is a
-//! deterministic function of (light, p), so `light_pdf` reproduces exactly the
-//! density `sample_light` draws from. Everything is computed on vertices
+//! deterministic function of (light, p), so the pdf reproduces exactly the
+//! density the sampler draws from. Everything is computed on vertices
 //! relative to `p`, so float32 precision follows the light's distance from the
 //! shading point, not from the world origin.
+//!
+//! Cost is split in three: `PreparedLight` (once per light and frame: edges,
+//! rectangle frame, area table), `LightSampler` (once per light and shading
+//! point: strategy and solid angles), then any number of `sample`/`pdf` calls.
+//! `sample_light`/`light_pdf`/`intersect_light` do all three every call.
 
-use super::spherical_rect::SphericalRect;
+use super::spherical_rect::{RectFrame, SphericalRect};
 use super::spherical_tri;
 use crate::scene::Light;
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 /// Below this solid angle (steradians) the light is sampled uniformly by area
 /// and the pdf converted to solid angle. Measured with
@@ -22,6 +27,7 @@ pub const SOLID_ANGLE_AREA_FALLBACK: f32 = 1e-3;
 
 /// Lights have at most 8 vertices (SCENE_FORMAT), so a fan has at most 6 triangles.
 const MAX_VERTS: usize = 8;
+const MAX_TRIS: usize = MAX_VERTS - 2;
 
 /// A direction toward a light from a shading point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,64 +40,45 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
-/// The light's vertices relative to p, in a fixed-size buffer (no allocation
-/// per shading point).
-struct Rel {
-    v: [Vec3; MAX_VERTS],
+/// The parts of a light that do not depend on the shading point, in fixed
+/// arrays (no allocation): build once per light per frame and share it
+/// between all pixels.
+#[derive(Debug, Clone, Copy)]
+pub struct PreparedLight {
+    verts: [Vec3; MAX_VERTS],
     n: usize,
+    normal: Vec3,
+    two_sided: bool,
+    area: f32,
+    /// Per edge i (vertex i to i+1): normal × edge, pointing into the polygon,
+    /// and the edge length (for the slack of the inside test).
+    inward: [Vec3; MAX_VERTS],
+    edge_len: [f32; MAX_VERTS],
+    /// Areas of the fan triangles (v0, vi, vi+1) and their sum: the
+    /// selection table of area sampling.
+    fan_area: [f32; MAX_TRIS],
+    fan_area_total: f32,
+    /// Corner (world space) and frame when the light is a true rectangle.
+    rect: Option<(Vec3, RectFrame)>,
 }
 
-impl Rel {
-    fn new(light: &Light, p: Vec3) -> Rel {
-        let mut v = [Vec3::ZERO; MAX_VERTS];
-        let n = light.vertices.len().min(MAX_VERTS);
-        for (dst, src) in v.iter_mut().zip(&light.vertices[..n]) {
-            *dst = *src - p;
-        }
-        Rel { v, n }
-    }
-
-    fn verts(&self) -> &[Vec3] {
-        &self.v[..self.n]
-    }
-}
-
-/// How sample_light draws for one (light, p). Solid angles are the robust Van
-/// Oosterom–Strackee values, per fan triangle.
-enum Strategy {
-    /// Rectangle: corner and orthogonal edges, relative to p.
-    Rect {
-        corner: Vec3,
-        ex: Vec3,
-        ey: Vec3,
-        omega: f32,
-    },
-    /// Fan (v0, vi, vi+1) of spherical triangles chosen by solid angle.
-    Fan {
-        tri: [f32; MAX_VERTS - 2],
-        omega: f32,
-    },
-    /// Uniform by area, pdf converted to solid angle.
-    Area,
-}
-
-/// The light as a rectangle `(corner, ex, ey)` relative to p, if it is one:
-/// a quad whose half-edges are orthogonal, or a 4-gon with orthogonal edges
-/// that closes as a parallelogram. Parallelograms that are not rectangles are
-/// not, and go to the triangle fan.
-fn as_rect(light: &Light, rel: &Rel, p: Vec3) -> Option<(Vec3, Vec3, Vec3)> {
+/// The light as a rectangle `(corner, ex, ey)`, if it is one: a quad whose
+/// half-edges are orthogonal, or a 4-gon with orthogonal edges that closes as
+/// a parallelogram. Parallelograms that are not rectangles are not, and go to
+/// the triangle fan. The closing test works on differences from vertex 0,
+/// which are as accurate as the old per-point relative vertices.
+fn as_rect(light: &Light, verts: &[Vec3]) -> Option<(Vec3, Vec3, Vec3)> {
     const TOL: f32 = 1e-5;
     if let Some((c, u, v)) = light.quad {
         if u.dot(v).abs() <= TOL * u.length() * v.length() {
-            return Some((c - u - v - p, 2.0 * u, 2.0 * v));
+            return Some((c - u - v, 2.0 * u, 2.0 * v));
         }
         return None;
     }
-    if rel.n == 4 {
-        let [a, b, c, d] = [rel.v[0], rel.v[1], rel.v[2], rel.v[3]];
+    if let [a, b, c, d] = *verts {
         let (ex, ey) = (b - a, d - a);
         let size = ex.length() + ey.length();
-        let closes = (a + ex + ey - c).length() <= TOL * size;
+        let closes = (ex + ey - (c - a)).length() <= TOL * size;
         if closes && ex.dot(ey).abs() <= TOL * ex.length() * ey.length() {
             return Some((a, ex, ey));
         }
@@ -99,72 +86,234 @@ fn as_rect(light: &Light, rel: &Rel, p: Vec3) -> Option<(Vec3, Vec3, Vec3)> {
     None
 }
 
-/// Signed distance of p from the light's plane, positive on the emitting side.
-fn side(light: &Light, rel: &Rel) -> f32 {
-    -rel.v[0].dot(light.normal)
+impl PreparedLight {
+    pub fn new(light: &Light) -> PreparedLight {
+        let n = light.vertices.len().min(MAX_VERTS);
+        let mut verts = [Vec3::ZERO; MAX_VERTS];
+        verts[..n].copy_from_slice(&light.vertices[..n]);
+        let normal = light.normal;
+        let mut inward = [Vec3::ZERO; MAX_VERTS];
+        let mut edge_len = [0.0; MAX_VERTS];
+        for i in 0..n {
+            let e = verts[(i + 1) % n] - verts[i];
+            inward[i] = normal.cross(e);
+            edge_len[i] = e.length();
+        }
+        let mut fan_area = [0.0; MAX_TRIS];
+        let mut fan_area_total = 0.0;
+        for i in 1..n.saturating_sub(1) {
+            fan_area[i - 1] = (verts[i] - verts[0])
+                .cross(verts[i + 1] - verts[0])
+                .length();
+            fan_area_total += fan_area[i - 1];
+        }
+        let rect = as_rect(light, &verts[..n])
+            .and_then(|(corner, ex, ey)| Some((corner, RectFrame::new(ex, ey)?)));
+        PreparedLight {
+            verts,
+            n,
+            normal,
+            two_sided: light.two_sided,
+            area: light.area,
+            inward,
+            edge_len,
+            fan_area,
+            fan_area_total,
+            rect,
+        }
+    }
+
+    /// Distance from `p` along unit `wi` to the light, if the ray hits its
+    /// emitting side (either side when two-sided). For BRDF-sampled directions.
+    pub fn intersect(&self, p: Vec3, wi: Vec3) -> Option<f32> {
+        if self.n < 3 {
+            return None;
+        }
+        self.intersect_plane(p, (self.verts[0] - p).dot(self.normal), wi)
+    }
+
+    /// `intersect` with `plane` = (v0 − p)·n already known.
+    fn intersect_plane(&self, p: Vec3, plane: f32, wi: Vec3) -> Option<f32> {
+        let cos = wi.dot(self.normal);
+        // One-sided lights emit along +n: a ray sees the front only travelling against n.
+        if cos == 0.0 || (!self.two_sided && cos > 0.0) {
+            return None;
+        }
+        let t = plane / cos;
+        if !(t > 0.0 && t.is_finite()) {
+            return None;
+        }
+        let q = wi * t;
+        for i in 0..self.n {
+            // (e × (q − a))·n = (n × e)·(q − a): the interior is on the left
+            // of every edge seen from +n. The slack covers rounding of a
+            // sample placed on an edge; it scales with the edge and with the
+            // distance to p, which set the size of that rounding.
+            let a = self.verts[i] - p;
+            let len = self.edge_len[i];
+            let tol = EDGE_SLACK * len * (t + len);
+            if self.inward[i].dot(q - a) < -tol {
+                return None;
+            }
+        }
+        Some(t)
+    }
+
+    /// Uniform point on the polygon by area, relative to `p`: a fan triangle
+    /// chosen by area, then uniform barycentrics by the square-root map; `u.x`
+    /// is reused after selection so strata survive.
+    fn area_point(&self, p: Vec3, u: Vec2) -> Vec3 {
+        let (k, ux) = select(&self.fan_area[..self.n - 2], self.fan_area_total, u.x);
+        let su = ux.sqrt();
+        let (b1, b2) = (su * (1.0 - u.y), su * u.y);
+        let v0 = self.verts[0];
+        (v0 - p) + b1 * (self.verts[k + 1] - v0) + b2 * (self.verts[k + 2] - v0)
+    }
 }
 
-/// The strategy for (light, p), or None when nothing can be sampled: p behind
-/// a one-sided light, p in the light's plane, or a degenerate light.
-fn strategy(light: &Light, rel: &Rel, p: Vec3) -> Option<Strategy> {
-    if rel.n < 3 {
-        return None;
-    }
-    let h = side(light, rel);
-    if !h.is_finite() || h == 0.0 || (!light.two_sided && h < 0.0) {
-        return None;
-    }
-    let vs = rel.verts();
-    let mut tri = [0.0f32; MAX_VERTS - 2];
-    let mut omega = 0.0;
-    for i in 1..rel.n - 1 {
-        tri[i - 1] = spherical_tri::solid_angle(vs[0], vs[i], vs[i + 1]);
-        omega += tri[i - 1];
-    }
-    if !(omega > 0.0 && omega.is_finite()) {
-        return None;
-    }
-    if omega < SOLID_ANGLE_AREA_FALLBACK {
-        return Some(Strategy::Area);
-    }
-    if let Some((corner, ex, ey)) = as_rect(light, rel, p) {
-        return Some(Strategy::Rect {
-            corner,
-            ex,
-            ey,
+/// How the sampler draws for one (light, p).
+#[derive(Debug, Clone, Copy)]
+enum Strategy {
+    /// Rectangle (Ureña), relative to p.
+    Rect(SphericalRect),
+    /// Fan (v0, vi, vi+1) of spherical triangles chosen by solid angle
+    /// (robust Van Oosterom–Strackee values, per triangle).
+    Fan([f32; MAX_TRIS]),
+    /// Uniform by area, pdf converted to solid angle.
+    Area,
+}
+
+/// One light as seen from one shading point: strategy and solid angles are
+/// set up once, then `sample` and `pdf` are cheap and share them, so the two
+/// MIS strategies of a pixel see exactly the same density.
+#[derive(Debug, Clone, Copy)]
+pub struct LightSampler<'a> {
+    light: &'a PreparedLight,
+    p: Vec3,
+    /// (v0 − p)·n: minus the signed height of p over the light's plane.
+    plane: f32,
+    omega: f32,
+    strategy: Strategy,
+}
+
+impl<'a> LightSampler<'a> {
+    /// Setup for `light` seen from `p`. `None` if p is behind a one-sided
+    /// light, in its plane, or the light subtends nothing representable.
+    pub fn new(light: &'a PreparedLight, p: Vec3) -> Option<LightSampler<'a>> {
+        let n = light.n;
+        if n < 3 {
+            return None;
+        }
+        let v0 = light.verts[0] - p;
+        let plane = v0.dot(light.normal);
+        if !plane.is_finite() || plane == 0.0 || (!light.two_sided && plane > 0.0) {
+            return None;
+        }
+        let (strategy, omega) = if let Some((corner, frame)) = &light.rect {
+            // Ureña's construction yields the solid angle itself.
+            let r = SphericalRect::from_frame(*corner - p, frame)?;
+            (Strategy::Rect(r), r.solid_angle())
+        } else {
+            // Each vertex length is shared by up to three fan triangles.
+            let mut rel = [DVec3::ZERO; MAX_VERTS];
+            let mut len = [0.0f64; MAX_VERTS];
+            for i in 0..n {
+                rel[i] = (light.verts[i] - p).as_dvec3();
+                len[i] = rel[i].length();
+            }
+            let mut tri = [0.0f32; MAX_TRIS];
+            let mut omega = 0.0;
+            for i in 1..n - 1 {
+                tri[i - 1] = spherical_tri::solid_angle_with_lengths(
+                    [rel[0], rel[i], rel[i + 1]],
+                    [len[0], len[i], len[i + 1]],
+                );
+                omega += tri[i - 1];
+            }
+            (Strategy::Fan(tri), omega)
+        };
+        if !(omega > 0.0 && omega.is_finite()) {
+            return None;
+        }
+        let strategy = if omega < SOLID_ANGLE_AREA_FALLBACK {
+            Strategy::Area
+        } else {
+            strategy
+        };
+        Some(LightSampler {
+            light,
+            p,
+            plane,
             omega,
-        });
+            strategy,
+        })
     }
-    Some(Strategy::Fan { tri, omega })
-}
 
-/// Uniform point on the polygon by area (relative or absolute, as given):
-/// a fan triangle chosen by area, then uniform barycentrics by the square-root
-/// map; `u.x` is reused after selection so strata survive.
-fn area_point(vs: &[Vec3], u: Vec2) -> Vec3 {
-    let n = vs.len();
-    let mut areas = [0.0f32; MAX_VERTS - 2];
-    let mut total = 0.0;
-    for i in 1..n - 1 {
-        areas[i - 1] = (vs[i] - vs[0]).cross(vs[i + 1] - vs[0]).length();
-        total += areas[i - 1];
+    /// Solid angle of the light seen from p.
+    pub fn solid_angle(&self) -> f32 {
+        self.omega
     }
-    let (k, ux) = select(&areas[..n - 2], total, u.x);
-    let su = ux.sqrt();
-    let (b1, b2) = (su * (1.0 - u.y), su * u.y);
-    vs[0] + b1 * (vs[k + 1] - vs[0]) + b2 * (vs[k + 2] - vs[0])
+
+    /// A direction toward the light drawn with `u` in [0,1)², with its
+    /// distance and solid-angle pdf; `None` only when rounding leaves no
+    /// finite positive pdf.
+    pub fn sample(&self, u: Vec2) -> Option<LightSample> {
+        let l = self.light;
+        let q = match &self.strategy {
+            Strategy::Rect(r) => r.sample(u),
+            Strategy::Fan(tri) => {
+                let (k, ux) = select(&tri[..l.n - 2], self.omega, u.x);
+                let a = l.verts[0] - self.p;
+                let b = l.verts[k + 1] - self.p;
+                let c = l.verts[k + 2] - self.p;
+                let dir = spherical_tri::sample(
+                    a.normalize(),
+                    b.normalize(),
+                    c.normalize(),
+                    tri[k],
+                    Vec2::new(ux, u.y),
+                );
+                // Place the point on the light's plane: the renderer needs dist.
+                dir * (self.plane / dir.dot(l.normal))
+            }
+            Strategy::Area => l.area_point(self.p, u),
+        };
+        let dist = q.length();
+        let wi = q / dist;
+        let pdf = self.pdf_at(wi, dist);
+        valid(pdf, dist).then_some(LightSample { wi, dist, pdf })
+    }
+
+    /// Solid-angle pdf that `sample` gives to the unit direction `wi`, and the
+    /// distance to the light along it; `None` (pdf 0) if `wi` misses the
+    /// light or hits its back side.
+    pub fn pdf(&self, wi: Vec3) -> Option<(f32, f32)> {
+        let dist = self.light.intersect_plane(self.p, self.plane, wi)?;
+        let pdf = self.pdf_at(wi, dist);
+        valid(pdf, dist).then_some((pdf, dist))
+    }
+
+    fn pdf_at(&self, wi: Vec3, dist: f32) -> f32 {
+        match self.strategy {
+            Strategy::Rect(_) | Strategy::Fan(_) => 1.0 / self.omega,
+            // dist² / (area · |cos θ_light|).
+            Strategy::Area => dist * dist / (self.light.area * wi.dot(self.light.normal).abs()),
+        }
+    }
 }
 
 /// Picks index k with probability w[k]/total and rescales `x` to [0,1) within
 /// the chosen interval (keeps stratification of `x`).
 fn select(w: &[f32], total: f32, x: f32) -> (usize, f32) {
+    // The last non-empty entry also catches rounding at the top end.
+    let Some(last) = w.iter().rposition(|&wk| wk > 0.0 || wk.is_nan()) else {
+        return (0, x);
+    };
     let target = x * total;
     let mut acc = 0.0;
-    for (k, &wk) in w.iter().enumerate() {
+    for (k, &wk) in w[..=last].iter().enumerate() {
         let next = acc + wk;
-        // The last non-empty entry also catches rounding at the top end.
-        let last = w[k + 1..].iter().all(|&r| r <= 0.0);
-        if wk > 0.0 && (target < next || last) {
+        if wk > 0.0 && (target < next || k == last) {
             return (
                 k,
                 ((target - acc) / wk).clamp(0.0, 1.0 - f32::EPSILON / 2.0),
@@ -182,13 +331,18 @@ pub fn sample_light_area_uniform(light: &Light, u: Vec2) -> Vec3 {
         // A parallelogram: the bilinear map is area-preserving.
         return c + (2.0 * u.x - 1.0) * a + (2.0 * u.y - 1.0) * b;
     }
-    area_point(&light.vertices, u)
-}
-
-/// Solid-angle pdf of area sampling in direction `wi` hitting at `dist`:
-/// dist² / (area · |cos θ_light|).
-fn area_pdf(light: &Light, wi: Vec3, dist: f32) -> f32 {
-    dist * dist / (light.area * wi.dot(light.normal).abs())
+    let vs = &light.vertices;
+    let n = vs.len();
+    let mut areas = [0.0f32; MAX_TRIS];
+    let mut total = 0.0;
+    for i in 1..n - 1 {
+        areas[i - 1] = (vs[i] - vs[0]).cross(vs[i + 1] - vs[0]).length();
+        total += areas[i - 1];
+    }
+    let (k, ux) = select(&areas[..n - 2], total, u.x);
+    let su = ux.sqrt();
+    let (b1, b2) = (su * (1.0 - u.y), su * u.y);
+    vs[0] + b1 * (vs[k + 1] - vs[0]) + b2 * (vs[k + 2] - vs[0])
 }
 
 /// Finite, positive pdf and distance, else nothing (never NaN downstream).
@@ -198,88 +352,23 @@ fn valid(pdf: f32, dist: f32) -> bool {
 
 /// Samples a direction toward `light` from `p` with `u` in [0,1)². `None` if p
 /// is behind a one-sided light, in its plane, or the light subtends nothing
-/// representable.
+/// representable. Sets everything up per call: per pixel, build a
+/// `LightSampler` once instead.
 pub fn sample_light(light: &Light, p: Vec3, u: Vec2) -> Option<LightSample> {
-    let rel = Rel::new(light, p);
-    let strat = strategy(light, &rel, p)?;
-    let q = match strat {
-        Strategy::Rect { corner, ex, ey, .. } => SphericalRect::new(corner, ex, ey)?.sample(u),
-        Strategy::Fan { tri, omega } => {
-            let vs = rel.verts();
-            let (k, ux) = select(&tri[..rel.n - 2], omega, u.x);
-            let (a, b, c) = (vs[0], vs[k + 1], vs[k + 2]);
-            let dir = spherical_tri::sample(
-                a.normalize(),
-                b.normalize(),
-                c.normalize(),
-                tri[k],
-                Vec2::new(ux, u.y),
-            );
-            // Place the point on the light's plane: the renderer needs dist.
-            let t = a.dot(light.normal) / dir.dot(light.normal);
-            dir * t
-        }
-        Strategy::Area => area_point(rel.verts(), u),
-    };
-    let dist = q.length();
-    let wi = q / dist;
-    let pdf = strategy_pdf(&strat, light, wi, dist);
-    valid(pdf, dist).then_some(LightSample { wi, dist, pdf })
-}
-
-/// The pdf of direction `wi` (hitting at `dist`) under the strategy for (light, p).
-fn strategy_pdf(strat: &Strategy, light: &Light, wi: Vec3, dist: f32) -> f32 {
-    match *strat {
-        Strategy::Rect { omega, .. } | Strategy::Fan { omega, .. } => 1.0 / omega,
-        Strategy::Area => area_pdf(light, wi, dist),
-    }
+    LightSampler::new(&PreparedLight::new(light), p)?.sample(u)
 }
 
 /// Solid-angle pdf that `sample_light` gives to the unit direction `wi`, and
 /// the distance to the light along it; `None` (pdf 0) if `wi` misses the light,
 /// hits its back side, or the light cannot be sampled from `p`.
 pub fn light_pdf(light: &Light, p: Vec3, wi: Vec3) -> Option<(f32, f32)> {
-    let rel = Rel::new(light, p);
-    let dist = intersect_rel(light, &rel, wi)?;
-    let pdf = strategy_pdf(&strategy(light, &rel, p)?, light, wi, dist);
-    valid(pdf, dist).then_some((pdf, dist))
+    LightSampler::new(&PreparedLight::new(light), p)?.pdf(wi)
 }
 
 /// Distance from `p` along unit `wi` to the light, if the ray hits its
 /// emitting side (either side when two-sided). For BRDF-sampled directions.
 pub fn intersect_light(light: &Light, p: Vec3, wi: Vec3) -> Option<f32> {
-    intersect_rel(light, &Rel::new(light, p), wi)
-}
-
-fn intersect_rel(light: &Light, rel: &Rel, wi: Vec3) -> Option<f32> {
-    if rel.n < 3 {
-        return None;
-    }
-    let n = light.normal;
-    let cos = wi.dot(n);
-    // One-sided lights emit along +n: a ray sees the front only travelling against n.
-    if cos == 0.0 || (!light.two_sided && cos > 0.0) {
-        return None;
-    }
-    let t = rel.v[0].dot(n) / cos;
-    if !(t > 0.0 && t.is_finite()) {
-        return None;
-    }
-    let q = wi * t;
-    let vs = rel.verts();
-    for i in 0..rel.n {
-        let a = vs[i];
-        let e = vs[(i + 1) % rel.n] - a;
-        // Right-hand rule: the interior is on the left of every edge seen
-        // from +n. The slack covers rounding of a sample placed on an edge;
-        // it scales with the edge and with the distance to p, which set the
-        // size of that rounding.
-        let tol = EDGE_SLACK * e.length() * (t + e.length());
-        if e.cross(q - a).dot(n) < -tol {
-            return None;
-        }
-    }
-    Some(t)
+    PreparedLight::new(light).intersect(p, wi)
 }
 
 /// Relative slack of the point-in-polygon test (a few dozen ulps).

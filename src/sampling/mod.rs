@@ -16,8 +16,8 @@ pub use brdf_sample::{
     vndf_sample,
 };
 pub use light::{
-    LightSample, SOLID_ANGLE_AREA_FALLBACK, intersect_light, light_pdf, sample_light,
-    sample_light_area_uniform,
+    LightSample, LightSampler, PreparedLight, SOLID_ANGLE_AREA_FALLBACK, intersect_light,
+    light_pdf, sample_light, sample_light_area_uniform,
 };
 pub use mis::{balance_heuristic, power_heuristic};
 pub use sequence::{Pcg32, hash_u32, sample_1d, sample_2d};

@@ -25,13 +25,6 @@ pub fn hash_u32(mut x: u32) -> u32 {
     x
 }
 
-/// Combines keys into one seed; order matters (not symmetric) because each
-/// step hashes the running value before mixing in the next key.
-#[inline]
-fn hash_combine(a: u32, b: u32) -> u32 {
-    hash_u32(a ^ b.wrapping_mul(0x9e37_79b9).wrapping_add(0x632b_e5ab))
-}
-
 /// A scramble in which each output bit (from the most significant) depends
 /// only on the input bits above it: that is exactly what keeps nets nets. It
 /// operates on bit-reversed values, where "above" becomes "below", which is
@@ -44,12 +37,6 @@ fn owen_reversed(mut x: u32, seed: u32) -> u32 {
     x ^= x.wrapping_mul(0xc7af_e638);
     x ^= x.wrapping_mul(0x8d22_f6e6);
     x
-}
-
-/// Owen scramble of a 32-bit binary fraction.
-#[inline]
-fn owen_scramble(x: u32, seed: u32) -> u32 {
-    owen_reversed(x.reverse_bits(), seed).reverse_bits()
 }
 
 /// Generator-matrix columns of Sobol dimension 1 (the second one): Pascal's
@@ -67,9 +54,10 @@ const fn sobol1_columns() -> [u32; 32] {
 }
 
 /// The matrix–vector product by bytes: entry [k][b] is the XOR of the columns
-/// 8k..8k+8 selected by byte value b. Four lookups instead of a 32-step loop
-/// (shuffled indices use all 32 bits).
-const SOBOL1_BYTES: [[u32; 256]; 4] = {
+/// 8k..8k+8 selected by byte value b, stored bit-reversed because the Owen
+/// scramble works on reversed values (reversal distributes over XOR). Four
+/// lookups instead of a 32-step loop (shuffled indices use all 32 bits).
+const SOBOL1_REV_BYTES: [[u32; 256]; 4] = {
     let cols = sobol1_columns();
     let mut t = [[0u32; 256]; 4];
     let mut k = 0;
@@ -84,7 +72,7 @@ const SOBOL1_BYTES: [[u32; 256]; 4] = {
                 }
                 bit += 1;
             }
-            t[k][b] = r;
+            t[k][b] = r.reverse_bits();
             b += 1;
         }
         k += 1;
@@ -92,14 +80,14 @@ const SOBOL1_BYTES: [[u32; 256]; 4] = {
     t
 };
 
-/// Sobol dimension 1 of index `i` as a 32-bit fraction.
+/// Sobol dimension 1 of index `i` as a bit-reversed 32-bit fraction.
 #[inline]
-fn sobol_dim1(i: u32) -> u32 {
+fn sobol_dim1_reversed(i: u32) -> u32 {
     let b = i.to_le_bytes();
-    SOBOL1_BYTES[0][b[0] as usize]
-        ^ SOBOL1_BYTES[1][b[1] as usize]
-        ^ SOBOL1_BYTES[2][b[2] as usize]
-        ^ SOBOL1_BYTES[3][b[3] as usize]
+    SOBOL1_REV_BYTES[0][b[0] as usize]
+        ^ SOBOL1_REV_BYTES[1][b[1] as usize]
+        ^ SOBOL1_REV_BYTES[2][b[2] as usize]
+        ^ SOBOL1_REV_BYTES[3][b[3] as usize]
 }
 
 /// Top 24 bits to a float in [0, 1): exact, and never rounds up to 1.
@@ -108,20 +96,41 @@ fn to_unit(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// Independent 32-bit seeds for one (pixel, dimension, seed) stream.
+/// splitmix64's finalizer (Stafford's mix13): full 64-bit avalanche in two
+/// multiplies, so one call seeds a whole stream instead of a chain of 32-bit hashes.
 #[inline]
-fn stream_seed(pixel_index: u32, dimension: u32, seed: u32) -> u32 {
-    hash_combine(hash_combine(hash_u32(seed), dimension), pixel_index)
+fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Independent scramble seeds for one (pixel, dimension, seed) stream: index
+/// shuffle, x and y. (pixel, dimension) fill the 64-bit key injectively and the
+/// frame seed is spread over all of it, so for a given frame no two streams
+/// share a key, and frames differ everywhere.
+#[inline]
+fn stream_seeds(pixel_index: u32, dimension: u32, seed: u32) -> (u32, u32, u32) {
+    let key = ((pixel_index as u64) << 32 | dimension as u64)
+        ^ (seed as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    let h = mix64(key);
+    // The y seed is only needed after the index shuffle, so one more mixing
+    // round for it costs no latency.
+    let hy = (h ^ (h >> 29)).wrapping_mul(0xd6e8_feb8_6659_fd93);
+    (h as u32, (h >> 32) as u32, (hy >> 32) as u32)
 }
 
 /// The `sample_index`-th 2D point of the stream (pixel, dimension, seed), in
 /// [0,1)². Prefixes of 2^m points are (0,m,2)-nets.
 #[inline]
 pub fn sample_2d(pixel_index: u32, sample_index: u32, dimension: u32, seed: u32) -> Vec2 {
-    let s = stream_seed(pixel_index, dimension, seed);
-    let i = owen_scramble(sample_index, s);
-    let x = owen_scramble(i.reverse_bits(), hash_u32(s ^ 0x5851_f42d));
-    let y = owen_scramble(sobol_dim1(i), hash_u32(s ^ 0x4c95_7f2d));
+    let (s, sx, sy) = stream_seeds(pixel_index, dimension, seed);
+    // Index shuffle: a nested scramble of the index (Owen in reversed bits).
+    let i = owen_reversed(sample_index.reverse_bits(), s).reverse_bits();
+    // x is the van der Corput point of i, r(i); its Owen scramble
+    // r(O(r(r(i)))) is r(O(i)): no reversal going in.
+    let x = owen_reversed(i, sx).reverse_bits();
+    let y = owen_reversed(sobol_dim1_reversed(i), sy).reverse_bits();
     Vec2::new(to_unit(x), to_unit(y))
 }
 
@@ -131,9 +140,9 @@ pub fn sample_2d(pixel_index: u32, sample_index: u32, dimension: u32, seed: u32)
 pub fn sample_1d(pixel_index: u32, sample_index: u32, dimension: u32, seed: u32) -> f32 {
     // A distinct key space from the 2D streams so a 1D and a 2D dimension with
     // the same number are not the same scrambled points.
-    let s = stream_seed(pixel_index, dimension ^ 0x8000_0000, seed);
-    let i = owen_scramble(sample_index, s);
-    to_unit(owen_scramble(i.reverse_bits(), hash_u32(s ^ 0x5851_f42d)))
+    let (s, sx, _) = stream_seeds(pixel_index, dimension ^ 0x8000_0000, seed);
+    let i = owen_reversed(sample_index.reverse_bits(), s).reverse_bits();
+    to_unit(owen_reversed(i, sx).reverse_bits())
 }
 
 /// PCG32 (O'Neill 2014, XSH-RR output): a small fast RNG for anything that

@@ -2,8 +2,35 @@
 //! "An Area-Preserving Parametrization for Spherical Rectangles"). Only for
 //! true rectangles: the construction relies on the edges being orthogonal.
 
-use glam::{Vec2, Vec3};
-use std::f32::consts::PI;
+use glam::{DVec3, Vec2, Vec3};
+
+/// The rectangle's own frame, independent of the viewpoint: built once per
+/// light so that per-point setup is three dot products. f64 because the
+/// per-point solid angle is only as accurate as the height `z0` taken from it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RectFrame {
+    x: DVec3,
+    y: DVec3,
+    lx: f64,
+    ly: f64,
+}
+
+impl RectFrame {
+    /// `ex`, `ey` the two orthogonal edges; `None` if one is degenerate.
+    pub(crate) fn new(ex: Vec3, ey: Vec3) -> Option<RectFrame> {
+        let (ex, ey) = (ex.as_dvec3(), ey.as_dvec3());
+        let (lx, ly) = (ex.length(), ey.length());
+        if !(lx > 0.0 && ly > 0.0 && lx.is_finite() && ly.is_finite()) {
+            return None;
+        }
+        Some(RectFrame {
+            x: ex / lx,
+            y: ey / ly,
+            lx,
+            ly,
+        })
+    }
+}
 
 /// A rectangle as seen from the origin (the shading point), set up once for
 /// any number of samples.
@@ -19,9 +46,14 @@ pub struct SphericalRect {
     y1: f32,
     b0: f32,
     b1: f32,
-    k: f32,
-    /// Solid angle from the construction (g0 + g1 − k): loses relative
-    /// precision for tiny rectangles because it is a difference of angles near π.
+    /// sin and cos of Ureña's k = 2π − γ2 − γ3. Sampling needs only
+    /// sin/cos(k + u·Ω), which the addition theorem gives from these and
+    /// sin/cos(u·Ω): no inverse trigonometry in the setup, and no loss of the
+    /// small u·Ω against k ≈ π in f32.
+    sin_k: f32,
+    cos_k: f32,
+    /// Solid angle by Van Oosterom–Strackee on the two halves of the
+    /// rectangle, combined into a single atan2 (see `from_frame`).
     solid_angle: f32,
 }
 
@@ -30,16 +62,16 @@ impl SphericalRect {
     /// leaving it. `None` if the viewpoint lies in the rectangle's plane or an
     /// edge is degenerate.
     pub fn new(corner: Vec3, ex: Vec3, ey: Vec3) -> Option<SphericalRect> {
-        let (lx, ly) = (ex.length(), ey.length());
-        if !(lx > 0.0 && ly > 0.0) {
-            return None;
-        }
-        let x = ex / lx;
-        let y = ey / ly;
-        let mut z = x.cross(y);
-        let x0 = corner.dot(x);
-        let y0 = corner.dot(y);
-        let mut z0 = corner.dot(z);
+        Self::from_frame(corner, &RectFrame::new(ex, ey)?)
+    }
+
+    /// As `new`, with the viewpoint-independent frame precomputed.
+    pub(crate) fn from_frame(corner: Vec3, f: &RectFrame) -> Option<SphericalRect> {
+        let c = corner.as_dvec3();
+        let mut z = f.x.cross(f.y);
+        let x0 = c.dot(f.x);
+        let y0 = c.dot(f.y);
+        let mut z0 = c.dot(z);
         // Work with the rectangle in the half space z < 0 of its own frame.
         if z0 > 0.0 {
             z0 = -z0;
@@ -48,38 +80,61 @@ impl SphericalRect {
         if z0.is_nan() || z0 >= 0.0 {
             return None;
         }
-        let x1 = x0 + lx;
-        let y1 = y0 + ly;
-        // Normals of the four planes through the origin and each edge, in
-        // closed form (cross products of the corner vectors, simplified).
-        let n0 = Vec3::new(0.0, z0, -y0) / (z0 * z0 + y0 * y0).sqrt();
-        let n1 = Vec3::new(-z0, 0.0, x1) / (z0 * z0 + x1 * x1).sqrt();
-        let n2 = Vec3::new(0.0, -z0, y1) / (z0 * z0 + y1 * y1).sqrt();
-        let n3 = Vec3::new(z0, 0.0, -x0) / (z0 * z0 + x0 * x0).sqrt();
-        // Interior angles of the spherical quadrilateral.
-        let g0 = (-n0.dot(n1)).clamp(-1.0, 1.0).acos();
-        let g1 = (-n1.dot(n2)).clamp(-1.0, 1.0).acos();
-        let g2 = (-n2.dot(n3)).clamp(-1.0, 1.0).acos();
-        let g3 = (-n3.dot(n0)).clamp(-1.0, 1.0).acos();
-        let k = 2.0 * PI - g2 - g3;
-        let solid_angle = g0 + g1 - k;
+        let (x1, y1) = (x0 + f.lx, y0 + f.ly);
+        // Everything below is f64: a handful of scalar operations, and it
+        // keeps the solid angle exact to f32 for lights from ~π sr (heavy
+        // cancellation in the VOS denominators) down to the area fallback.
+        let z2 = z0 * z0;
+        let (xx0, xx1, yy0, yy1) = (x0 * x0, x1 * x1, y0 * y0, y1 * y1);
+        // Distances to the corners c_ij = (x_i, y_j, z0).
+        let r00 = (xx0 + yy0 + z2).sqrt();
+        let r10 = (xx1 + yy0 + z2).sqrt();
+        let r11 = (xx1 + yy1 + z2).sqrt();
+        let r01 = (xx0 + yy1 + z2).sqrt();
+        // Van Oosterom–Strackee for (c00, c10, c11) and (c00, c11, c01): both
+        // triple products are exactly |z0|·lx·ly in this frame (no
+        // cancellation for tiny distant rectangles).
+        let num = -z0 * f.lx * f.ly;
+        let (d00_10, d00_11, d00_01) = (
+            x0 * x1 + yy0 + z2,
+            x0 * x1 + y0 * y1 + z2,
+            xx0 + y0 * y1 + z2,
+        );
+        let (d10_11, d11_01) = (xx1 + y0 * y1 + z2, x0 * x1 + yy1 + z2);
+        let den1 = r00 * r10 * r11 + d00_10 * r11 + d00_11 * r10 + d10_11 * r00;
+        let den2 = r00 * r11 * r01 + d00_11 * r01 + d00_01 * r11 + d11_01 * r00;
+        // Ω/2 = atan2(num, den1) + atan2(num, den2) = arg((den1 + i·num)(den2 + i·num)),
+        // which stays below π for any planar rectangle: one atan2 instead of two.
+        let solid_angle = (2.0 * (num * (den1 + den2)).atan2(den1 * den2 - num * num)) as f32;
+        // Great-circle normals through the edges (Ureña's n0, n2, n3) are
+        // (0, z0, −y0)/r0, (0, −z0, y1)/r2, (z0, 0, −x0)/r3; their interior
+        // angles γ2, γ3 in closed form, cos and sin both.
+        let r0 = (z2 + yy0).sqrt();
+        let r2 = (z2 + yy1).sqrt();
+        let r3 = (z2 + xx0).sqrt();
+        let (c2, s2) = (x0 * y1 / (r2 * r3), -z0 * r01 / (r2 * r3));
+        let (c3, s3) = (-x0 * y0 / (r3 * r0), -z0 * r00 / (r3 * r0));
+        // k = 2π − (γ2 + γ3).
+        let cos_k = c2 * c3 - s2 * s3;
+        let sin_k = -(s2 * c3 + c2 * s3);
         Some(SphericalRect {
-            x,
-            y,
-            z,
-            z0,
-            x0,
-            x1,
-            y0,
-            y1,
-            b0: n0.z,
-            b1: n2.z,
-            k,
+            x: f.x.as_vec3(),
+            y: f.y.as_vec3(),
+            z: z.as_vec3(),
+            z0: z0 as f32,
+            x0: x0 as f32,
+            x1: x1 as f32,
+            y0: y0 as f32,
+            y1: y1 as f32,
+            b0: (-y0 / r0) as f32,
+            b1: (y1 / r2) as f32,
+            sin_k: sin_k as f32,
+            cos_k: cos_k as f32,
             solid_angle,
         })
     }
 
-    /// The construction's own solid angle (see the field's note on precision).
+    /// The solid angle the sampler covers (exact to f32 rounding).
     pub fn solid_angle(&self) -> f32 {
         self.solid_angle
     }
@@ -89,8 +144,10 @@ impl SphericalRect {
     /// the slab left of it), `u.y` the height within it, so strata in `u` stay
     /// strata on the rectangle.
     pub fn sample(&self, u: Vec2) -> Vec3 {
-        let au = u.x * self.solid_angle + self.k;
-        let (sin_au, cos_au) = au.sin_cos();
+        // sin/cos of au = k + u.x·Ω by the addition theorem.
+        let (st, ct) = (u.x * self.solid_angle).sin_cos();
+        let sin_au = self.sin_k * ct + self.cos_k * st;
+        let cos_au = self.cos_k * ct - self.sin_k * st;
         let fu = (cos_au * self.b0 - self.b1) / sin_au;
         let cu = ((fu * fu + self.b0 * self.b0).sqrt().recip()).copysign(fu);
         let cu = if cu.is_finite() {

@@ -1,7 +1,7 @@
 //! Spherical triangles: a robust solid angle and uniform solid-angle sampling
 //! (Arvo 1995, "Stratified Sampling of Spherical Triangles").
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// Solid angle subtended at the origin by the triangle with corners `a`, `b`,
@@ -15,8 +15,13 @@ use std::f32::consts::PI;
 /// as f32 for a handful of scalar operations).
 pub fn solid_angle(a: Vec3, b: Vec3, c: Vec3) -> f32 {
     let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    solid_angle_with_lengths([a, b, c], [a.length(), b.length(), c.length()])
+}
+
+/// `solid_angle` with the corners already in f64 and their lengths known: a
+/// fan shares each vertex (and its square root) between up to three triangles.
+pub(crate) fn solid_angle_with_lengths([a, b, c]: [DVec3; 3], [la, lb, lc]: [f64; 3]) -> f32 {
     let triple = a.dot((b - a).cross(c - a)).abs();
-    let (la, lb, lc) = (a.length(), b.length(), c.length());
     let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
     let omega = (2.0 * triple.atan2(den)) as f32;
     if omega.is_finite() { omega } else { 0.0 }
