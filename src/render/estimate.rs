@@ -13,7 +13,7 @@ use super::mode::Mode;
 use super::shadow::{ShadowBatch, ShadowRay};
 use super::world::World;
 use crate::sampling::brdf_sample::{brdf_pdf, sample_brdf, spec_lobe_probability};
-use crate::sampling::light::{intersect_light, light_pdf, sample_light, sample_light_area_uniform};
+use crate::sampling::light::{LightSampler, sample_light_area_uniform};
 use crate::sampling::sequence::{sample_1d, sample_2d};
 use crate::shading::brdf::{self, alpha_from_roughness};
 use crate::shading::{SurfacePoint, unshadowed};
@@ -144,6 +144,8 @@ pub fn draw_samples(
     // Light sampling serves diffuse surfaces best, BRDF sampling glossy ones;
     // one-sample MIS needs both whenever the specular lobe exists.
     let p_light_strategy = if p_spec > 0.0 { 0.5 } else { 1.0 };
+    // The light sampler of the last light chosen: its setup is per (light, point).
+    let mut cached: Option<(usize, Option<LightSampler>)> = None;
     for s in 0..spp {
         let index = first_sample.wrapping_add(s);
         let (li, p_choose) = pick_light(per_light, sample_1d(pixel, index, DIM_LIGHT, seed));
@@ -162,10 +164,16 @@ pub fn draw_samples(
             batch.push(ShadowRay::new(shadow_origin(g), wi, dist, pixel_slot, w));
             continue;
         }
+        if cached.is_none_or(|(k, _)| k != li) {
+            cached = Some((li, LightSampler::new(&world.prepared[li], g.position)));
+        }
+        let Some((_, Some(sampler))) = cached else {
+            continue;
+        };
         let use_light = sample_1d(pixel, index, DIM_STRATEGY, seed) < p_light_strategy;
-        let (wi, dist) = if use_light {
-            match sample_light(light, g.position, dir_u) {
-                Some(ls) => (ls.wi, ls.dist),
+        let (wi, dist, pdf_light) = if use_light {
+            match sampler.sample(dir_u) {
+                Some(ls) => (ls.wi, ls.dist, ls.pdf),
                 None => continue,
             }
         } else {
@@ -173,8 +181,8 @@ pub fn draw_samples(
             let Some(bs) = sample_brdf(n, wo, alpha, p_spec, lobe, dir_u) else {
                 continue;
             };
-            match intersect_light(light, g.position, bs.wi) {
-                Some(d) => (bs.wi, d),
+            match sampler.pdf(bs.wi) {
+                Some((pdf, d)) => (bs.wi, d, pdf),
                 None => continue,
             }
         };
@@ -182,7 +190,6 @@ pub fn draw_samples(
         if cos <= 0.0 {
             continue;
         }
-        let pdf_light = light_pdf(light, g.position, wi).map_or(0.0, |(p, _)| p);
         let pdf_brdf = if p_light_strategy < 1.0 {
             brdf_pdf(n, wo, wi, alpha, p_spec)
         } else {

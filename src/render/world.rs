@@ -2,6 +2,7 @@
 //! and the map from Embree geometry ids back to meshes and lights.
 
 use crate::embree::{Device, EmbreeError, GeometryRole, SceneBuilder};
+use crate::sampling::light::PreparedLight;
 use crate::scene::{Light, Scene};
 use glam::Vec3;
 
@@ -14,6 +15,8 @@ pub enum GeomRef {
 
 pub struct World<'d> {
     pub scene: Scene,
+    /// Per-light sampling data that does not depend on the shading point.
+    pub prepared: Vec<PreparedLight>,
     pub rt: crate::embree::Scene<'d>,
     pub geoms: Vec<GeomRef>,
 }
@@ -37,7 +40,13 @@ impl<'d> World<'d> {
             geoms.push(GeomRef::Light(i as u32));
         }
         let rt = builder.commit()?;
-        Ok(World { scene, rt, geoms })
+        let prepared = scene.lights.iter().map(PreparedLight::new).collect();
+        Ok(World {
+            scene,
+            prepared,
+            rt,
+            geoms,
+        })
     }
 
     #[inline]
