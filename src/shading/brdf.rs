@@ -145,7 +145,11 @@ impl Frame {
         } else {
             n.any_orthonormal_vector()
         };
-        Frame { x, y: n.cross(x), z: n }
+        Frame {
+            x,
+            y: n.cross(x),
+            z: n,
+        }
     }
 
     #[inline]

@@ -162,7 +162,10 @@ impl LtcTable {
         let n = (self.size - 1) as f32;
         let x = roughness.clamp(0.0, 1.0) * n;
         let y = (1.0 - cos_view.clamp(0.0, 1.0)).sqrt() * n;
-        let (i0, j0) = ((x as usize).min(self.size - 2), (y as usize).min(self.size - 2));
+        let (i0, j0) = (
+            (x as usize).min(self.size - 2),
+            (y as usize).min(self.size - 2),
+        );
         let (fx, fy) = (x - i0 as f32, y - j0 as f32);
         let a = self.cell(i0, j0).to_array();
         let b = self.cell(i0 + 1, j0).to_array();

@@ -168,8 +168,8 @@ pub fn edge_sum(poly: &Polygon) -> f64 {
         return 0.0;
     }
     let mut u = [DVec3::ZERO; MAX_VERTICES];
-    for i in 0..poly.n {
-        u[i] = unit_or_zero(poly.v[i]);
+    for (dst, &src) in u.iter_mut().zip(poly.vertices()) {
+        *dst = unit_or_zero(src);
     }
     let mut sum = 0.0;
     for i in 0..poly.n {

@@ -48,7 +48,10 @@ pub fn unshadowed_lobes(sp: &SurfacePoint, light: &Light) -> (Vec3, Vec3) {
     }
     let p = sp.p.as_dvec3();
     // Which side of the light's plane the point is on (> 0: emitting side).
-    let side = light.normal.as_dvec3().dot(p - light.vertices[0].as_dvec3());
+    let side = light
+        .normal
+        .as_dvec3()
+        .dot(p - light.vertices[0].as_dvec3());
     let lit = side > 0.0 || (light.two_sided && side < 0.0);
     if !lit {
         return zero;

@@ -2,7 +2,9 @@
 //! BRDF x light over the light's AREA (not its contour, as the code under
 //! test does), in f64, after clipping the light by the tangent plane so that
 //! the integrand is smooth on every triangle.
-#![allow(dead_code)]
+// Each test binary uses a different subset; the 3-component loops index
+// several arrays at once, which reads better than zipped iterators.
+#![allow(dead_code, clippy::needless_range_loop)]
 
 use glam::{DVec3, Vec3};
 use penumbra::scene::Light;
@@ -99,7 +101,12 @@ impl Setup {
         let m01 = (t[0] + t[1]) * 0.5;
         let m12 = (t[1] + t[2]) * 0.5;
         let m20 = (t[2] + t[0]) * 0.5;
-        [[t[0], m01, m20], [m01, t[1], m12], [m20, m12, t[2]], [m01, m12, m20]]
+        [
+            [t[0], m01, m20],
+            [m01, t[1], m12],
+            [m20, m12, t[2]],
+            [m01, m12, m20],
+        ]
     }
 
     /// A triangle with its rule value and the value of its 4 children.
@@ -112,7 +119,16 @@ impl Setup {
                 fine[c] += v[c];
             }
         }
-        Node { t, fine, diff: (0..3).map(|c| (fine[c] - whole[c]).abs()).collect::<Vec<_>>().try_into().unwrap(), key: 0.0 }
+        Node {
+            t,
+            fine,
+            diff: (0..3)
+                .map(|c| (fine[c] - whole[c]).abs())
+                .collect::<Vec<_>>()
+                .try_into()
+                .unwrap(),
+            key: 0.0,
+        }
     }
 }
 
@@ -193,7 +209,12 @@ pub fn reference(sp: &SurfacePoint, light: &Light, rel_tol: f64) -> Reference {
             let m01 = (t[0] + t[1]) * 0.5;
             let m12 = (t[1] + t[2]) * 0.5;
             let m20 = (t[2] + t[0]) * 0.5;
-            next.extend([[t[0], m01, m20], [m01, t[1], m12], [m20, m12, t[2]], [m01, m12, m20]]);
+            next.extend([
+                [t[0], m01, m20],
+                [m01, t[1], m12],
+                [m20, m12, t[2]],
+                [m01, m12, m20],
+            ]);
         }
         tris = next;
     }
@@ -209,7 +230,13 @@ pub fn reference(sp: &SurfacePoint, light: &Light, rel_tol: f64) -> Reference {
             total[c] += nd.fine[c];
         }
     }
-    let scale = total.map(|v| if v.abs() > 1e-14 { v.abs() } else { f64::INFINITY });
+    let scale = total.map(|v| {
+        if v.abs() > 1e-14 {
+            v.abs()
+        } else {
+            f64::INFINITY
+        }
+    });
     let key = |nd: &Node| (0..3).map(|c| nd.diff[c] / scale[c]).fold(0.0, f64::max);
     let mut err_sum = 0.0;
     for nd in &mut nodes {
@@ -262,7 +289,11 @@ pub fn polygon_light(vertices: &[Vec3], radiance: Vec3, two_sided: bool) -> Ligh
 
 /// A parallelogram light with corners c ± u ± v, emitting along u × v.
 pub fn quad_light(c: Vec3, u: Vec3, v: Vec3, radiance: Vec3, two_sided: bool) -> Light {
-    let mut l = polygon_light(&[c - u - v, c + u - v, c + u + v, c - u + v], radiance, two_sided);
+    let mut l = polygon_light(
+        &[c - u - v, c + u - v, c + u + v, c - u + v],
+        radiance,
+        two_sided,
+    );
     l.quad = Some((c, u, v));
     l
 }
@@ -281,5 +312,42 @@ pub fn rel(x: f32, reference: f32) -> f32 {
         if x == 0.0 { 0.0 } else { f32::INFINITY }
     } else {
         (x - reference).abs() / reference.abs()
+    }
+}
+
+/// ∫ f_spec(F=1) cos over the whole hemisphere for a local view `wo`
+/// (VNDF estimate, 512² strata): the scale of the whole specular lobe.
+pub fn lobe_total(roughness: f32, wo: Vec3) -> f32 {
+    let a = brdf::alpha_from_roughness(roughness);
+    let k = 512;
+    let mut s = 0.0f64;
+    for j in 0..k {
+        for i in 0..k {
+            let h = brdf::sample_vndf(
+                a,
+                wo,
+                (i as f32 + 0.5) / k as f32,
+                (j as f32 + 0.5) / k as f32,
+            );
+            let wi = brdf::reflect(wo, h);
+            if wi.z > 0.0 {
+                s += (brdf::spec_f1_local(a, wi, wo) * wi.z / brdf::vndf_pdf(a, wi, wo)) as f64;
+            }
+        }
+    }
+    (s / (k * k) as f64) as f32
+}
+
+/// A surface point at `p` with normal +Z, viewed from `view_deg` off the
+/// normal in the xz plane, white diffuse and the given F0 and roughness.
+pub fn point_z(p: Vec3, view_deg: f32, specular: Vec3, roughness: f32) -> SurfacePoint {
+    let t = view_deg.to_radians();
+    SurfacePoint {
+        p,
+        n: Vec3::Z,
+        wo: Vec3::new(t.sin(), 0.0, t.cos()),
+        diffuse: Vec3::ONE,
+        specular,
+        roughness,
     }
 }
