@@ -34,6 +34,7 @@ fn quad(c: Vec3, u: Vec3, v: Vec3) -> Light {
     }
 }
 
+/// Four quads, all emitting toward the plane y = 0 around the origin.
 fn lights() -> Vec<Light> {
     vec![
         quad(
