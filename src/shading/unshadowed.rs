@@ -65,7 +65,6 @@ pub fn unshadowed_lobes(sp: &SurfacePoint, light: &Light) -> (Vec3, Vec3) {
         poly.v[poly.n] = DVec3::new(q.dot(fx), q.dot(fy), q.dot(fz));
         poly.n += 1;
     }
-    let mut poly = poly;
     poly.clip_upper_in_place();
     if poly.n < 3 {
         return zero;
