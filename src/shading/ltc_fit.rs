@@ -4,13 +4,18 @@
 //! Per cell (roughness, cos θv), with the view `V = (sin θv, 0, cos θv)`:
 //! 1. Moments from 128² stratified VNDF samples: `mag = ∫ f cos`,
 //!    `fres = ∫ f cos (1 - V.h)^5` and the lobe's mean direction (angle `phi`).
-//! 2. `M = R(phi) * [[m11, 0, m13], [0, m22, 0], [0, 0, 1]]` (R rotates +Z to the
-//!    mean direction about +Y); `(m11, m22, m13)` minimise
+//! 2. `M = R(phi + dphi) * [[m11, 0, m13], [0, m22, 0], [0, 0, 1]]` (R rotates
+//!    +Z about +Y to the mean direction, plus a fitted correction `dphi`:
+//!    freeing the frame angle cut the median L1 fit error from 5.2% to 3.7%
+//!    and the polygon errors at roughness 0.3 from 7% to 0.7%);
+//!    `(m11, m22, m13, dphi)` minimise
 //!    `∫ |f cos - mag D_M / hmass|^3 dω` (`D_M` clamped to the upper hemisphere,
 //!    as the renderer evaluates it). The L3 norm weights the lobe's peak, where
 //!    highlights live (Heitz et al. 2016). The integral is estimated from 32²
 //!    stratified samples of BOTH the BRDF (VNDF) and the LTC, combined with the
 //!    balance heuristic: `Σ e / (p_brdf + p_ltc) / N`.
+//!    (Measured alternative: the L1 norm gave a similar L1 fit error, 3.7%,
+//!    but larger polygon errors at roughness 0.3.)
 //! 3. Nelder-Mead (our own, `nelder_mead`), seeded from the previous cell of
 //!    the same roughness (one step less grazing). At normal incidence the lobe
 //!    is isotropic, so the first cell of each roughness fits one parameter
@@ -21,8 +26,10 @@
 //! Regenerate the committed table with
 //! `penumbra fit-ltc --size 64 --out data/ltc_64.bin --heatmap ltc-error.png`
 //! (or, without the CLI, `cargo run --release --example fit_ltc -- 64
-//! data/ltc_64.bin ltc-error.png`). The committed 64x64 table took FIT_TIME
-//! on 2 cores.
+//! data/ltc_64.bin ltc-error.png`). The committed 64x64 table took 141 s
+//! on 2 (shared, busy) cores; relative L1 fit error per cell: median 3.7%,
+//! p90 21%, max 103% (grazing views, cos θv -> 0, where a cosine cannot follow
+//! GGX's horizon-hugging lobe).
 
 use super::brdf;
 use super::ltc::{LtcCell, LtcTable};
@@ -223,14 +230,14 @@ fn for_grid(k: usize, mut f: impl FnMut(f64, f64)) {
 
 /// Fits one cell. `seed` is the previous cell's `(m11, m22, m13)`; `None`
 /// means normal incidence (isotropic fit). Returns the cell and its params.
-fn fit_cell(roughness: f32, cos_view: f32, seed: Option<[f64; 3]>) -> (LtcCell, [f64; 3]) {
+fn fit_cell(roughness: f32, cos_view: f32, seed: Option<[f64; 4]>) -> (LtcCell, [f64; 4]) {
     let alpha = brdf::alpha_from_roughness(roughness);
     let lobe = Lobe::new(alpha, cos_view);
     let samples = lobe.brdf_samples(K_FIT);
     let phi = lobe.phi;
-    let err3 = |p: [f64; 3]| {
+    let err4 = |p: [f64; 4]| {
         lobe.error(
-            &Ltc::new(p[0], p[1], p[2], phi),
+            &Ltc::new(p[0], p[1], p[2], phi + p[3]),
             &samples,
             K_FIT,
             ERROR_POWER,
@@ -240,13 +247,13 @@ fn fit_cell(roughness: f32, cos_view: f32, seed: Option<[f64; 3]>) -> (LtcCell, 
         None => {
             let a = alpha as f64;
             let (p, _) = nelder_mead::minimize(
-                |p: &[f64; 1]| err3([p[0], p[0], 0.0]),
+                |p: &[f64; 1]| err4([p[0], p[0], 0.0, 0.0]),
                 [a],
                 [0.3 * a],
                 FTOL,
                 EVALS_ISO,
             );
-            [p[0].abs(), p[0].abs(), 0.0]
+            [p[0].abs(), p[0].abs(), 0.0, 0.0]
         }
         Some(s) => {
             let scale = s[0].abs().max(s[1].abs()).max(1e-6);
@@ -254,12 +261,13 @@ fn fit_cell(roughness: f32, cos_view: f32, seed: Option<[f64; 3]>) -> (LtcCell, 
                 0.1 * s[0].abs().max(0.1 * scale),
                 0.1 * s[1].abs().max(0.1 * scale),
                 0.1 * scale,
+                0.02,
             ];
-            let (p, _) = nelder_mead::minimize(|p: &[f64; 3]| err3(*p), s, step, FTOL, EVALS_ANISO);
-            [p[0].abs(), p[1].abs(), p[2]]
+            let (p, _) = nelder_mead::minimize(|p: &[f64; 4]| err4(*p), s, step, FTOL, EVALS_ANISO);
+            [p[0].abs(), p[1].abs(), p[2], p[3]]
         }
     };
-    let ltc = Ltc::new(params[0], params[1], params[2], phi);
+    let ltc = Ltc::new(params[0], params[1], params[2], phi + params[3]);
     let report = lobe.brdf_samples(K_REPORT);
     let l1 = lobe.error(&ltc, &report, K_REPORT, 1) / lobe.mag.max(1e-30);
     let mi = ltc.minv;

@@ -16,7 +16,7 @@
 
 use super::brdf::Frame;
 use super::ltc;
-use super::polygon::{MAX_LIGHT_VERTICES, Polygon, clipped_cosine_integral};
+use super::polygon::{MAX_LIGHT_VERTICES, Polygon, cosine_integral};
 use crate::scene::Light;
 use glam::{DVec3, Vec3};
 
@@ -65,14 +65,14 @@ pub fn unshadowed_lobes(sp: &SurfacePoint, light: &Light) -> (Vec3, Vec3) {
         poly.v[poly.n] = DVec3::new(q.dot(fx), q.dot(fy), q.dot(fz));
         poly.n += 1;
     }
-    let poly = poly.clip_upper();
+    poly.clip_upper_in_place();
     if poly.n < 3 {
         return zero;
     }
 
     let diffuse = if sp.diffuse != Vec3::ZERO {
         // (diffuse/π) ∫ cos dω = diffuse * form factor.
-        let ff = clipped_cosine_integral(&poly) as f32;
+        let ff = cosine_integral(&poly) as f32;
         sp.diffuse * light.radiance * ff
     } else {
         Vec3::ZERO
@@ -80,7 +80,9 @@ pub fn unshadowed_lobes(sp: &SurfacePoint, light: &Light) -> (Vec3, Vec3) {
 
     let specular = if sp.specular != Vec3::ZERO {
         let cell = ltc::table().lookup(sp.roughness, sp.n.dot(sp.wo));
-        let i = clipped_cosine_integral(&poly.transformed(&cell.inv_matrix())) as f32;
+        let mut lp = poly.transformed(&cell.inv_matrix());
+        lp.clip_upper_in_place();
+        let i = cosine_integral(&lp) as f32;
         let scale = sp.specular * cell.mag + (Vec3::ONE - sp.specular) * cell.fres;
         light.radiance * scale * (i / cell.hmass)
     } else {

@@ -2,7 +2,9 @@
 //! BRDF x light over the light's AREA (not its contour, as the code under
 //! test does), in f64, after clipping the light by the tangent plane so that
 //! the integrand is smooth on every triangle.
-#![allow(dead_code)]
+// Each test binary uses a different subset; the 3-component loops index
+// several arrays at once, which reads better than zipped iterators.
+#![allow(dead_code, clippy::needless_range_loop)]
 
 use glam::{DVec3, Vec3};
 use penumbra::scene::Light;
@@ -310,5 +312,42 @@ pub fn rel(x: f32, reference: f32) -> f32 {
         if x == 0.0 { 0.0 } else { f32::INFINITY }
     } else {
         (x - reference).abs() / reference.abs()
+    }
+}
+
+/// ∫ f_spec(F=1) cos over the whole hemisphere for a local view `wo`
+/// (VNDF estimate, 512² strata): the scale of the whole specular lobe.
+pub fn lobe_total(roughness: f32, wo: Vec3) -> f32 {
+    let a = brdf::alpha_from_roughness(roughness);
+    let k = 512;
+    let mut s = 0.0f64;
+    for j in 0..k {
+        for i in 0..k {
+            let h = brdf::sample_vndf(
+                a,
+                wo,
+                (i as f32 + 0.5) / k as f32,
+                (j as f32 + 0.5) / k as f32,
+            );
+            let wi = brdf::reflect(wo, h);
+            if wi.z > 0.0 {
+                s += (brdf::spec_f1_local(a, wi, wo) * wi.z / brdf::vndf_pdf(a, wi, wo)) as f64;
+            }
+        }
+    }
+    (s / (k * k) as f64) as f32
+}
+
+/// A surface point at `p` with normal +Z, viewed from `view_deg` off the
+/// normal in the xz plane, white diffuse and the given F0 and roughness.
+pub fn point_z(p: Vec3, view_deg: f32, specular: Vec3, roughness: f32) -> SurfacePoint {
+    let t = view_deg.to_radians();
+    SurfacePoint {
+        p,
+        n: Vec3::Z,
+        wo: Vec3::new(t.sin(), 0.0, t.cos()),
+        diffuse: Vec3::ONE,
+        specular,
+        roughness,
     }
 }
