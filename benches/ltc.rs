@@ -40,7 +40,7 @@ fn lights() -> Vec<Light> {
         quad(
             vec3(0.0, 3.0, 0.0),
             vec3(1.0, 0.0, 0.0),
-            vec3(0.0, 0.0, -0.5),
+            vec3(0.0, 0.0, 0.5),
         ),
         quad(
             vec3(-3.0, 1.5, 1.0),
@@ -50,12 +50,12 @@ fn lights() -> Vec<Light> {
         quad(
             vec3(2.5, 2.0, -2.0),
             vec3(0.3, 0.0, 0.3),
-            vec3(0.0, -0.5, 0.0),
+            vec3(0.0, 0.5, 0.0),
         ),
         quad(
             vec3(0.0, 1.0, 4.0),
             vec3(-1.5, 0.0, 0.0),
-            vec3(0.0, -0.7, 0.0),
+            vec3(0.0, 0.7, 0.0),
         ),
     ]
 }
@@ -110,6 +110,13 @@ fn bench(c: &mut Criterion) {
             }
         })
         .collect();
+    // The per-evaluation bench uses light 0, which must face every point
+    // (a culled light would only time the early exit).
+    assert!(
+        inputs
+            .iter()
+            .all(|sp| ls[0].normal.dot(sp.p - ls[0].vertices[0]) > 0.0)
+    );
     c.bench_function("unshadowed/quad (ns per evaluation = time / 4096)", |b| {
         b.iter(|| {
             let mut acc = Vec3::ZERO;
