@@ -141,9 +141,8 @@ pub fn draw_samples(
     let wo = g.wo;
     let alpha = alpha_from_roughness(g.roughness);
     let p_spec = spec_lobe_probability(g.diffuse, g.specular, n.dot(wo));
-    // Light sampling serves diffuse surfaces best, BRDF sampling glossy ones;
-    // one-sample MIS needs both whenever the specular lobe exists.
-    let p_light_strategy = if p_spec > 0.0 { 0.5 } else { 1.0 };
+    // Rough solid angle of the reflected GGX lobe, for the strategy choice.
+    let lobe_solid_angle = 4.0 * std::f32::consts::PI * (2.0 * alpha).powi(2);
     // The light sampler of the last light chosen: its setup is per (light, point).
     let mut cached: Option<(usize, Option<LightSampler>)> = None;
     for s in 0..spp {
@@ -170,6 +169,7 @@ pub fn draw_samples(
         let Some((_, Some(sampler))) = cached else {
             continue;
         };
+        let p_light_strategy = light_strategy_probability(p_spec, lobe_solid_angle, sampler.solid_angle());
         let use_light = sample_1d(pixel, index, DIM_STRATEGY, seed) < p_light_strategy;
         let (wi, dist, pdf_light) = if use_light {
             match sampler.sample(dir_u) {
@@ -207,6 +207,20 @@ pub fn draw_samples(
         *un += w;
         batch.push(ShadowRay::new(shadow_origin(g), wi, dist, pixel_slot, w));
     }
+}
+
+/// How often one-sample MIS draws from the light rather than the BRDF.
+/// Light sampling serves the diffuse lobe, and a specular lobe wider than
+/// the light; BRDF sampling a lobe narrower than the light (a near mirror).
+/// Any value in (0, 1] keeps the estimator unbiased (light sampling covers
+/// the whole light); the clamp keeps both strategies alive for MIS.
+#[inline]
+fn light_strategy_probability(p_spec: f32, lobe_solid_angle: f32, light_solid_angle: f32) -> f32 {
+    if p_spec <= 0.0 {
+        return 1.0;
+    }
+    let spec = (lobe_solid_angle / (lobe_solid_angle + light_solid_angle)).clamp(0.1, 0.9);
+    (1.0 - p_spec) + p_spec * spec
 }
 
 /// `S_N / U_N` per channel, defined as 1 (fully lit) where `U_N` carries no
