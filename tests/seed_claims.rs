@@ -106,7 +106,9 @@ fn soft_shadow_is_wrong_on_glossy_receivers_and_ratio_is_not() {
         .map(|(name, glossy)| {
             let id = material(name);
             let on = |k: usize| {
-                inside[k] && ratio.gbuf[k].kind == PixelKind::Surface && ratio.gbuf[k].material == id
+                inside[k]
+                    && ratio.gbuf[k].kind == PixelKind::Surface
+                    && ratio.gbuf[k].material == id
             };
             let e_ratio = rel_mse_where(&ratio, &reference, on);
             let e_soft = rel_mse_where(&soft, &reference, on);
@@ -116,9 +118,15 @@ fn soft_shadow_is_wrong_on_glossy_receivers_and_ratio_is_not() {
         .collect();
     for (name, glossy, e_ratio, e_soft) in errors {
         if glossy {
-            assert!(e_soft > 5.0 * e_ratio, "{name}: soft-shadow {e_soft} vs ratio {e_ratio}");
+            assert!(
+                e_soft > 5.0 * e_ratio,
+                "{name}: soft-shadow {e_soft} vs ratio {e_ratio}"
+            );
         } else {
-            assert!(e_ratio < 2e-3 && e_soft < 5e-3, "{name}: ratio {e_ratio}, soft-shadow {e_soft}");
+            assert!(
+                e_ratio < 2e-3 && e_soft < 5e-3,
+                "{name}: ratio {e_ratio}, soft-shadow {e_soft}"
+            );
         }
     }
 }

@@ -169,7 +169,8 @@ pub fn draw_samples(
         let Some((_, Some(sampler))) = cached else {
             continue;
         };
-        let p_light_strategy = light_strategy_probability(p_spec, lobe_solid_angle, sampler.solid_angle());
+        let p_light_strategy =
+            light_strategy_probability(p_spec, lobe_solid_angle, sampler.solid_angle());
         let use_light = sample_1d(pixel, index, DIM_STRATEGY, seed) < p_light_strategy;
         let (wi, dist, pdf_light) = if use_light {
             match sampler.sample(dir_u) {
