@@ -117,3 +117,29 @@ fn view_without_a_display_suggests_render() {
         "stderr: {err}"
     );
 }
+
+#[test]
+fn fit_ltc_writes_a_table_the_renderer_can_load() {
+    let table = temp("ltc_4.bin");
+    let heatmap = temp("ltc_4.png");
+    let run = penumbra()
+        .args(["fit-ltc", "--size", "4", "--out"])
+        .arg(&table)
+        .arg("--heatmap")
+        .arg(&heatmap)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let bytes = std::fs::read(&table).unwrap();
+    let loaded = penumbra::shading::ltc::LtcTable::from_bytes(&bytes).unwrap();
+    assert_eq!(loaded.size, 4);
+    assert!(image::open(&heatmap).is_ok());
+}
+
+#[test]
+fn a_zero_width_is_refused() {
+    let run = penumbra().args(["render", "--width", "0", "--out"]).arg(temp("z.png")).output().unwrap();
+    assert!(!run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("resolution 0x") && !err.contains("panicked"), "stderr: {err}");
+}
