@@ -129,7 +129,11 @@ fn fit_ltc_writes_a_table_the_renderer_can_load() {
         .arg(&heatmap)
         .output()
         .unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
     let bytes = std::fs::read(&table).unwrap();
     let loaded = penumbra::shading::ltc::LtcTable::from_bytes(&bytes).unwrap();
     assert_eq!(loaded.size, 4);
@@ -138,8 +142,15 @@ fn fit_ltc_writes_a_table_the_renderer_can_load() {
 
 #[test]
 fn a_zero_width_is_refused() {
-    let run = penumbra().args(["render", "--width", "0", "--out"]).arg(temp("z.png")).output().unwrap();
+    let run = penumbra()
+        .args(["render", "--width", "0", "--out"])
+        .arg(temp("z.png"))
+        .output()
+        .unwrap();
     assert!(!run.status.success());
     let err = String::from_utf8_lossy(&run.stderr);
-    assert!(err.contains("resolution 0x") && !err.contains("panicked"), "stderr: {err}");
+    assert!(
+        err.contains("resolution 0x") && !err.contains("panicked"),
+        "stderr: {err}"
+    );
 }
