@@ -1,13 +1,15 @@
 //! Speed of the analytic U: `cargo bench --bench ltc`.
 //! - `unshadowed/quad`: one evaluation for a quad light, random shading
 //!   points, views and roughness (inputs precomputed).
+//! - `unshadowed_prepared/quad`: the same with the light prepared once
+//!   (`ShadingLight`), as the renderer calls it.
 //! - `u_pass/N`: a U pass over a synthetic 1280x720 G-buffer (a plane with
-//!   varying normals) with N quad lights, one thread.
+//!   varying normals) with N prepared quad lights, one thread.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec3, vec3};
 use penumbra::scene::Light;
-use penumbra::shading::{SurfacePoint, unshadowed};
+use penumbra::shading::{ShadingLight, SurfacePoint, unshadowed, unshadowed_prepared};
 use std::hint::black_box;
 
 /// Small deterministic generator (xorshift) so inputs are reproducible.
@@ -126,6 +128,19 @@ fn bench(c: &mut Criterion) {
             acc
         })
     });
+    let prepared: Vec<ShadingLight> = ls.iter().map(ShadingLight::new).collect();
+    c.bench_function(
+        "unshadowed_prepared/quad (ns per evaluation = time / 4096)",
+        |b| {
+            b.iter(|| {
+                let mut acc = Vec3::ZERO;
+                for sp in &inputs {
+                    acc += unshadowed_prepared(black_box(sp), &prepared[0]);
+                }
+                acc
+            })
+        },
+    );
 
     let g = gbuffer();
     let mut group = c.benchmark_group("u_pass 1280x720");
@@ -135,8 +150,8 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 let mut acc = Vec3::ZERO;
                 for sp in &g {
-                    for l in &ls[..n] {
-                        acc += unshadowed(black_box(sp), l);
+                    for l in &prepared[..n] {
+                        acc += unshadowed_prepared(black_box(sp), l);
                     }
                 }
                 acc

@@ -16,7 +16,7 @@ use crate::sampling::brdf_sample::{brdf_pdf, sample_brdf, spec_lobe_probability}
 use crate::sampling::light::{LightSampler, sample_light_area_uniform};
 use crate::sampling::sequence::{sample_1d, sample_2d};
 use crate::shading::brdf::{self, alpha_from_roughness};
-use crate::shading::{SurfacePoint, unshadowed};
+use crate::shading::{SurfacePoint, unshadowed_prepared};
 use glam::Vec3;
 
 pub fn mode_available(_mode: Mode) -> bool {
@@ -58,8 +58,8 @@ pub fn analytic_u(world: &World, g: &GSample, per_light: &mut [Vec3]) -> Vec3 {
     }
     let sp = surface_point(g);
     let mut total = Vec3::ZERO;
-    for (u, light) in per_light.iter_mut().zip(&world.scene.lights) {
-        *u = unshadowed(&sp, light);
+    for (u, light) in per_light.iter_mut().zip(&world.shading_lights) {
+        *u = unshadowed_prepared(&sp, light);
         total += *u;
     }
     total

@@ -4,6 +4,7 @@
 use crate::embree::{Device, EmbreeError, GeometryRole, SceneBuilder};
 use crate::sampling::light::PreparedLight;
 use crate::scene::{Light, Scene};
+use crate::shading::ShadingLight;
 use glam::Vec3;
 
 /// What an Embree geometry id stands for.
@@ -17,6 +18,8 @@ pub struct World<'d> {
     pub scene: Scene,
     /// Per-light sampling data that does not depend on the shading point.
     pub prepared: Vec<PreparedLight>,
+    /// Per-light shading data for the analytic `U` (one per scene light).
+    pub shading_lights: Vec<ShadingLight>,
     pub rt: crate::embree::Scene<'d>,
     pub geoms: Vec<GeomRef>,
 }
@@ -41,9 +44,11 @@ impl<'d> World<'d> {
         }
         let rt = builder.commit()?;
         let prepared = scene.lights.iter().map(PreparedLight::new).collect();
+        let shading_lights = scene.lights.iter().map(ShadingLight::new).collect();
         Ok(World {
             scene,
             prepared,
+            shading_lights,
             rt,
             geoms,
         })

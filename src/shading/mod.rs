@@ -8,4 +8,7 @@ pub mod nelder_mead;
 pub mod polygon;
 pub mod unshadowed;
 
-pub use unshadowed::{SurfacePoint, unshadowed, unshadowed_lobes};
+pub use unshadowed::{
+    ShadingLight, SurfacePoint, unshadowed, unshadowed_lobes, unshadowed_lobes_prepared,
+    unshadowed_prepared,
+};

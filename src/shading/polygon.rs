@@ -193,6 +193,86 @@ pub fn edge_sum(poly: &Polygon) -> f64 {
     sum
 }
 
+/// `edge_sum` of `K` polygons of exactly `N` vertices each (`v[k][..N]`),
+/// computed together. The arithmetic is `edge_sum`'s (normalise each vertex
+/// once, then each edge reads its two unit vertices), arranged for speed:
+/// - U needs two polygons with the same vertex count (the light in the
+///   shading frame for Lambert, and in LTC space for GGX); doing them in
+///   lockstep lets the compiler pair them into 2-wide `f64` SIMD and
+///   overlaps their square roots and divisions, the latency of U;
+/// - the normalisations carry no branch;
+/// - `pi / sin` is needed only by edges spanning more than 90 degrees
+///   (cos < 0, only on very wide polygons): one well-predicted test keeps
+///   its extra square root and division off the common path.
+#[inline(always)]
+fn edge_sums<const K: usize, const N: usize>(v: [&[DVec3; MAX_VERTICES]; K]) -> [f64; K] {
+    let mut inv = [[0.0; N]; K];
+    for k in 0..K {
+        for i in 0..N {
+            let l2 = v[k][i].length_squared();
+            // Zero for a vertex at the shading point (its edges then
+            // contribute nothing instead of NaN), as `unit_or_zero`.
+            let r = 1.0 / l2.max(1e-280).sqrt();
+            inv[k][i] = if l2 > 1e-280 && l2.is_finite() {
+                r
+            } else {
+                0.0
+            };
+        }
+    }
+    let mut dot = [[0.0; N]; K];
+    let mut cz = [[0.0; N]; K];
+    let mut wide = false;
+    for k in 0..K {
+        for i in 0..N {
+            let j = if i + 1 == N { 0 } else { i + 1 };
+            let (a, b) = (v[k][i], v[k][j]);
+            let w = inv[k][i] * inv[k][j];
+            dot[k][i] = (a.dot(b) * w).clamp(-1.0, 1.0);
+            cz[k][i] = (a.x * b.y - a.y * b.x) * w;
+            wide |= dot[k][i] < 0.0;
+        }
+    }
+    let mut sum = [0.0; K];
+    for k in 0..K {
+        for i in 0..N {
+            let t = if wide {
+                theta_over_sin(dot[k][i])
+            } else {
+                theta_over_sin_pos(dot[k][i])
+            };
+            sum[k] += t * cz[k][i];
+        }
+    }
+    sum
+}
+
+/// `edge_sum` of the first `n` vertices of `v` (n <= `MAX_VERTICES`), with
+/// triangles and quads (nearly every light, unclipped) on unrolled paths.
+#[inline(always)]
+pub fn edge_sum_fixed(v: &[DVec3; MAX_VERTICES], n: usize) -> f64 {
+    match n {
+        0..=2 => 0.0,
+        3 => edge_sums::<1, 3>([v])[0],
+        4 => edge_sums::<1, 4>([v])[0],
+        _ => edge_sum(&Polygon { v: *v, n }),
+    }
+}
+
+/// `[edge_sum(a), edge_sum(b)]` for two polygons of `n` vertices each.
+#[inline(always)]
+pub fn edge_sum_pair(a: &[DVec3; MAX_VERTICES], b: &[DVec3; MAX_VERTICES], n: usize) -> [f64; 2] {
+    match n {
+        0..=2 => [0.0; 2],
+        3 => edge_sums::<2, 3>([a, b]),
+        4 => edge_sums::<2, 4>([a, b]),
+        _ => [
+            edge_sum(&Polygon { v: *a, n }),
+            edge_sum(&Polygon { v: *b, n }),
+        ],
+    }
+}
+
 /// `(1/π) ∫ max(cos θ, 0) dω` over a polygon already clipped to z >= 0,
 /// i.e. the form factor; in [0, 1] for any orientation of the vertex order.
 pub fn cosine_integral(poly: &Polygon) -> f64 {

@@ -16,7 +16,7 @@
 
 use super::brdf::Frame;
 use super::ltc;
-use super::polygon::{MAX_LIGHT_VERTICES, Polygon, cosine_integral};
+use super::polygon::{MAX_LIGHT_VERTICES, MAX_VERTICES, Polygon, edge_sum_fixed, edge_sum_pair};
 use crate::scene::Light;
 use glam::{DVec3, Vec3};
 
@@ -33,25 +33,66 @@ pub struct SurfacePoint {
     pub roughness: f32,
 }
 
+/// What `unshadowed` needs of a light, converted once per frame instead of
+/// once per pixel: vertices in `f64` in a fixed array (no pointer chase into
+/// the scene's `Vec`), the plane, and whether the light can emit at all.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadingLight {
+    v: [DVec3; MAX_VERTICES],
+    n: usize,
+    normal: DVec3,
+    radiance: Vec3,
+    two_sided: bool,
+}
+
+impl ShadingLight {
+    pub fn new(light: &Light) -> ShadingLight {
+        let mut v = [DVec3::ZERO; MAX_VERTICES];
+        let mut n = light.vertices.len().min(MAX_LIGHT_VERTICES);
+        for (dst, src) in v.iter_mut().zip(&light.vertices[..n]) {
+            *dst = src.as_dvec3();
+        }
+        // A degenerate or dark light is marked by n = 0: one early exit.
+        if n < 3 || light.radiance == Vec3::ZERO {
+            n = 0;
+        }
+        ShadingLight {
+            v,
+            n,
+            normal: light.normal.as_dvec3(),
+            radiance: light.radiance,
+            two_sided: light.two_sided,
+        }
+    }
+}
+
 /// U for one light: ∫ f L cos over the light polygon. Finite and >= 0 always.
 pub fn unshadowed(sp: &SurfacePoint, light: &Light) -> Vec3 {
-    let (d, s) = unshadowed_lobes(sp, light);
-    d + s
+    unshadowed_prepared(sp, &ShadingLight::new(light))
 }
 
 /// Same, split into (diffuse lobe, specular lobe).
 pub fn unshadowed_lobes(sp: &SurfacePoint, light: &Light) -> (Vec3, Vec3) {
+    unshadowed_lobes_prepared(sp, &ShadingLight::new(light))
+}
+
+/// `unshadowed` with the light prepared once (per frame) by `ShadingLight::new`.
+#[inline]
+pub fn unshadowed_prepared(sp: &SurfacePoint, light: &ShadingLight) -> Vec3 {
+    let (d, s) = unshadowed_lobes_prepared(sp, light);
+    d + s
+}
+
+/// `unshadowed_lobes` with a prepared light.
+pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Vec3, Vec3) {
     let zero = (Vec3::ZERO, Vec3::ZERO);
-    let nv = light.vertices.len().min(MAX_LIGHT_VERTICES);
-    if nv < 3 || light.radiance == Vec3::ZERO {
+    let nv = light.n;
+    if nv < 3 {
         return zero;
     }
     let p = sp.p.as_dvec3();
     // Which side of the light's plane the point is on (> 0: emitting side).
-    let side = light
-        .normal
-        .as_dvec3()
-        .dot(p - light.vertices[0].as_dvec3());
+    let side = light.normal.dot(p - light.v[0]);
     let lit = side > 0.0 || (light.two_sided && side < 0.0);
     if !lit {
         return zero;
@@ -59,34 +100,73 @@ pub fn unshadowed_lobes(sp: &SurfacePoint, light: &Light) -> (Vec3, Vec3) {
 
     let frame = Frame::from_normal_view(sp.n, sp.wo);
     let (fx, fy, fz) = (frame.x.as_dvec3(), frame.y.as_dvec3(), frame.z.as_dvec3());
-    let mut poly = Polygon::default();
-    for v in &light.vertices[..nv] {
-        let q = v.as_dvec3() - p;
-        poly.v[poly.n] = DVec3::new(q.dot(fx), q.dot(fy), q.dot(fz));
-        poly.n += 1;
-    }
-    poly.clip_upper_in_place();
-    if poly.n < 3 {
-        return zero;
-    }
-
-    let diffuse = if sp.diffuse != Vec3::ZERO {
-        // (diffuse/π) ∫ cos dω = diffuse * form factor.
-        let ff = cosine_integral(&poly) as f32;
-        sp.diffuse * light.radiance * ff
-    } else {
-        Vec3::ZERO
+    let mut poly = Polygon {
+        v: [DVec3::ZERO; MAX_VERTICES],
+        n: nv,
     };
+    let mut below = false;
+    for (dst, v) in poly.v.iter_mut().zip(&light.v[..nv]) {
+        let q = *v - p;
+        *dst = DVec3::new(q.dot(fx), q.dot(fy), q.dot(fz));
+        below |= dst.z < 0.0;
+    }
+    if below {
+        // Rare (lights straddling or under the horizon): the general clip.
+        poly = poly.clip_upper();
+        if poly.n < 3 {
+            return zero;
+        }
+    }
 
-    let specular = if sp.specular != Vec3::ZERO {
-        let cell = ltc::table().lookup(sp.roughness, sp.n.dot(sp.wo));
-        let mut lp = poly.transformed(&cell.inv_matrix());
-        lp.clip_upper_in_place();
-        let i = cosine_integral(&lp) as f32;
-        let scale = sp.specular * cell.mag + (Vec3::ONE - sp.specular) * cell.fres;
-        light.radiance * scale * (i / cell.hmass)
-    } else {
-        Vec3::ZERO
+    let want_d = sp.diffuse != Vec3::ZERO;
+    let want_s = sp.specular != Vec3::ZERO;
+    // Lambert integrates `poly`, GGX its LTC image `lp`; when both are
+    // wanted and `lp` needs no clip of its own (the common case) their
+    // contour sums run in lockstep (see `edge_sum_pair`).
+    let (mut ff, mut i_spec, mut cell) = (0.0, 0.0, None);
+    if want_s {
+        let c = ltc::table().lookup(sp.roughness, sp.n.dot(sp.wo));
+        // M^-1 = [[m00, 0, m02], [0, 1, 0], [m20, 0, m22]]: apply only the
+        // four non-trivial entries instead of a full 3x3 product.
+        let (m00, m02, m20, m22) = (c.m00 as f64, c.m02 as f64, c.m20 as f64, c.m22 as f64);
+        let mut lp = poly;
+        let mut below = false;
+        for v in &mut lp.v[..poly.n] {
+            let (x, z) = (v.x, v.z);
+            v.x = m00 * x + m02 * z;
+            v.z = m20 * x + m22 * z;
+            below |= v.z < 0.0;
+        }
+        if below {
+            lp = lp.clip_upper();
+        }
+        if want_d && lp.n == poly.n {
+            [ff, i_spec] = edge_sum_pair(&poly.v, &lp.v, poly.n);
+        } else {
+            i_spec = edge_sum_fixed(&lp.v, lp.n);
+            if want_d {
+                ff = edge_sum_fixed(&poly.v, poly.n);
+            }
+        }
+        cell = Some(c);
+    } else if want_d {
+        ff = edge_sum_fixed(&poly.v, poly.n);
+    }
+
+    // (diffuse/π) ∫ cos dω = diffuse * form factor.
+    let diffuse = sp.diffuse * light.radiance * form_factor(ff) as f32;
+    let specular = match cell {
+        Some(c) => {
+            let scale = sp.specular * c.mag + (Vec3::ONE - sp.specular) * c.fres;
+            light.radiance * scale * (form_factor(i_spec) as f32 / c.hmass)
+        }
+        None => Vec3::ZERO,
     };
     (diffuse.max(Vec3::ZERO), specular.max(Vec3::ZERO))
+}
+
+/// `cosine_integral` from a contour sum: in [0, 1] for either winding.
+#[inline]
+fn form_factor(edge_sum: f64) -> f64 {
+    (edge_sum.abs() / (2.0 * std::f64::consts::PI)).min(1.0)
 }
