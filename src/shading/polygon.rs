@@ -209,15 +209,12 @@ fn edge_sums<const K: usize, const N: usize>(v: [&[DVec3; MAX_VERTICES]; K]) -> 
     let mut inv = [[0.0; N]; K];
     for k in 0..K {
         for i in 0..N {
-            let l2 = v[k][i].length_squared();
-            // Zero for a vertex at the shading point (its edges then
-            // contribute nothing instead of NaN), as `unit_or_zero`.
-            let r = 1.0 / l2.max(1e-280).sqrt();
-            inv[k][i] = if l2 > 1e-280 && l2.is_finite() {
-                r
-            } else {
-                0.0
-            };
+            // No test and select here: the compiler turns one into a
+            // branch around each square root, serialising them. The floor
+            // alone keeps a vertex at the shading point finite (it stays
+            // the zero vector, so its edges add exactly 0); lengths cannot
+            // overflow, the vertices come from `f32` scene data.
+            inv[k][i] = 1.0 / v[k][i].length_squared().max(1e-280).sqrt();
         }
     }
     let mut dot = [[0.0; N]; K];
