@@ -63,6 +63,8 @@ pub struct PhaseTimes {
     /// Wall time of the denoiser (it runs after the band pass, over the frame).
     pub denoise: f64,
     pub wall: f64,
+    /// Shadow rays traced this frame.
+    pub shadow_rays: u64,
 }
 
 #[derive(Default)]
@@ -71,6 +73,7 @@ struct PhaseClock {
     u: AtomicU64,
     shadow: AtomicU64,
     composite: AtomicU64,
+    shadow_rays: AtomicU64,
 }
 
 impl PhaseClock {
@@ -187,6 +190,7 @@ impl Frame {
             composite: secs(&clock.composite),
             denoise,
             wall: start.elapsed().as_secs_f64(),
+            shadow_rays: clock.shadow_rays.load(Ordering::Relaxed),
         }
     }
 
@@ -247,6 +251,9 @@ impl Frame {
                     scratch.batch.trace(&world.rt, settings.packet, |r| {
                         sn[r.slot as usize] += r.weight
                     });
+                    clock
+                        .shadow_rays
+                        .fetch_add(scratch.batch.rays.len() as u64, Ordering::Relaxed);
                     PhaseClock::add(&clock.shadow, t)
                 } else {
                     t
@@ -413,6 +420,9 @@ impl Frame {
                         scratch.batch.trace(&world.rt, settings.packet, |r| {
                             sn[r.slot as usize] += r.weight
                         });
+                        clock
+                            .shadow_rays
+                            .fetch_add(scratch.batch.rays.len() as u64, Ordering::Relaxed);
                         let t = PhaseClock::add(&clock.shadow, t);
                         for k in 0..gbuf.len() {
                             accum[k] += finite_or_zero(gbuf[k].emission + sn[k]);

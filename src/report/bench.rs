@@ -5,19 +5,23 @@
 use super::ceiling::ray_ceiling;
 use super::stats::median;
 use crate::embree::{self, Device};
+use crate::render::shadow::PacketWidth;
 use crate::render::{Frame, Mode, PhaseTimes, RenderSettings, World};
 use crate::scene::Scene;
 use anyhow::{Context, Result};
 use std::fmt::Write;
 
-/// The configurations measured: mode and whether the denoiser runs.
-const CONFIGS: [(Mode, bool); 6] = [
-    (Mode::Ratio, true),
-    (Mode::Ratio, false),
-    (Mode::Stochastic, true),
-    (Mode::Stochastic, false),
-    (Mode::SoftShadow, false),
-    (Mode::Unshadowed, false),
+/// The configurations measured: mode, whether the denoiser runs, and how
+/// shadow rays reach Embree.
+const CONFIGS: [(Mode, bool, PacketWidth); 8] = [
+    (Mode::Ratio, true, PacketWidth::Sixteen),
+    (Mode::Ratio, false, PacketWidth::Sixteen),
+    (Mode::Ratio, false, PacketWidth::Eight),
+    (Mode::Ratio, false, PacketWidth::One),
+    (Mode::Stochastic, true, PacketWidth::Sixteen),
+    (Mode::Stochastic, false, PacketWidth::Sixteen),
+    (Mode::SoftShadow, false, PacketWidth::Sixteen),
+    (Mode::Unshadowed, false, PacketWidth::Sixteen),
 ];
 
 pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result<String> {
@@ -44,10 +48,11 @@ pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result
             .map(|_| pool.install(|| ray_ceiling(&world, &camera, width, height, 1)))
             .collect();
         let ceiling = median(&ceilings.iter().map(|c| c.total()).collect::<Vec<_>>());
-        for (mode, denoise) in CONFIGS {
+        for (mode, denoise, packet) in CONFIGS {
             let settings = RenderSettings {
                 mode,
                 denoise,
+                packet,
                 ..RenderSettings::default()
             };
             let mut frame = Frame::new(width, height);
@@ -59,7 +64,16 @@ pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result
             let stage = |f: fn(&PhaseTimes) -> f64| {
                 median(&runs.iter().map(f).collect::<Vec<_>>()) / t as f64 * 1e3
             };
-            let label = format!("{}{}", mode.name(), if denoise { "+dn" } else { "" });
+            let label = format!(
+                "{}{}{}",
+                mode.name(),
+                if denoise { "+dn" } else { "" },
+                match packet {
+                    PacketWidth::Sixteen => "",
+                    PacketWidth::Eight => " (x8)",
+                    PacketWidth::One => " (x1)",
+                }
+            );
             writeln!(
                 out,
                 "{:<16} {:>7} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>9.2}",
@@ -73,7 +87,7 @@ pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result
                 stage(|r| r.composite),
                 wall / ceiling
             )?;
-            if mode == Mode::Ratio && denoise {
+            if mode == Mode::Ratio && denoise && packet == PacketWidth::Sixteen {
                 frame_ms.push(wall);
             }
         }

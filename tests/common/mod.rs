@@ -76,42 +76,15 @@ pub fn color_bytes(frame: &Frame) -> Vec<u8> {
 
 /// relMSE of `x` against `reference` over the pixels where `mask` holds.
 pub fn rel_mse_where(x: &Frame, reference: &Frame, mask: impl Fn(usize) -> bool) -> f64 {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for k in 0..x.pixel_count() {
-        if !mask(k) {
-            continue;
-        }
-        for c in 0..3 {
-            let (a, r) = (x.color[k][c] as f64, reference.color[k][c] as f64);
-            sum += (a - r) * (a - r) / (r * r + 1e-2);
-        }
-        n += 3;
-    }
-    sum / n.max(1) as f64
+    let m: Vec<bool> = (0..x.pixel_count()).map(mask).collect();
+    penumbra::report::stats::rel_mse_masked(&x.color, &reference.color, &m)
 }
 
 pub fn rel_mse(x: &Frame, reference: &Frame) -> f64 {
     penumbra::report::stats::rel_mse(&x.color, &reference.color)
 }
 
-/// Pixels away from geometric edges: the pixel and its 8 neighbours see the
-/// same kind of thing with the same material in `frame` (rendered at pixel
-/// centres). The reference's box filter blends across edges; these pixels
-/// compare estimators, not pixel filters.
+/// Pixels away from geometric edges (see `report::stats::interior`).
 pub fn interior(frame: &Frame) -> Vec<bool> {
-    let (w, h) = (frame.width as i64, frame.height as i64);
-    let key = |x: i64, y: i64| {
-        let g = &frame.gbuf[(y * w + x) as usize];
-        (g.kind, g.material)
-    };
-    (0..w * h)
-        .map(|k| {
-            let (x, y) = (k % w, k / w);
-            if x == 0 || y == 0 || x == w - 1 || y == h - 1 {
-                return false;
-            }
-            let centre = key(x, y);
-            (-1..=1).all(|dy| (-1..=1).all(|dx| key(x + dx, y + dy) == centre))
-        })
-        .collect()
+    penumbra::report::stats::interior(frame.width, frame.height, &frame.gbuf)
 }
