@@ -23,7 +23,7 @@ build: deps
 # Opens the viewer on the built-in scene; without a display, renders it to a PNG.
 run: build
 	@if [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ]; then $(BIN) view; \
-	else mkdir -p out && $(BIN) render --out out/default.png && echo "no display: rendered the built-in scene to out/default.png"; fi
+	else mkdir -p out && $(BIN) render --frames 16 --out out/default.png && echo "no display: rendered the built-in scene to out/default.png"; fi
 
 test: deps
 	$(CARGO) test --release
