@@ -23,83 +23,8 @@ pub fn solid_angle(a: Vec3, b: Vec3, c: Vec3) -> f32 {
 pub(crate) fn solid_angle_with_lengths([a, b, c]: [DVec3; 3], [la, lb, lc]: [f64; 3]) -> f32 {
     let triple = a.dot((b - a).cross(c - a)).abs();
     let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
-    let omega = (2.0 * atan2_upper(triple, den)) as f32;
+    let omega = (2.0 * triple.atan2(den)) as f32;
     if omega.is_finite() { omega } else { 0.0 }
-}
-
-/// `y.atan2(x)` for `y >= 0`, in [0, π], without libm: a fan of a hexagon
-/// calls this four times per shading point, and libm's general atan2 was the
-/// largest single cost of setting up a fan. The result needs f32 accuracy
-/// only; this is good to ~1e-11 relative, so the solid angle rounds the same.
-///
-/// tan(θ/2) = y / (r + x) = (r − x) / y with r = |(x, y)|; either form is a
-/// sum of non-negative terms (no cancellation, so tiny angles and angles
-/// near π both keep full relative precision): for x ≥ 0, θ = 2·atan(y/(r+x)),
-/// else θ = π − 2·atan(y/(r−x)), both arguments in [0, 1]. 0/0 (a
-/// degenerate triangle) gives NaN, which the caller maps to 0 as before.
-#[inline]
-fn atan2_upper(y: f64, x: f64) -> f64 {
-    let r = (x * x + y * y).sqrt();
-    if x >= 0.0 {
-        2.0 * atan_unit(y / (r + x))
-    } else {
-        std::f64::consts::PI - 2.0 * atan_unit(y / (r - x))
-    }
-}
-
-/// atan(t) for t in [0, 1]: one half-angle step brings the argument to
-/// s <= tan(π/8) ≈ 0.414, where twelve terms of the alternating Taylor series
-/// leave an error below s²⁴/25 ≈ 3e-11 (relative), better than f32 needs.
-#[inline]
-fn atan_unit(t: f64) -> f64 {
-    let s = t / (1.0 + (1.0 + t * t).sqrt());
-    let z = s * s;
-    // Coefficients (−1)^k / (2k + 1), k = 11 down to 0, evaluated by Horner.
-    const C: [f64; 12] = [
-        -1.0 / 23.0,
-        1.0 / 21.0,
-        -1.0 / 19.0,
-        1.0 / 17.0,
-        -1.0 / 15.0,
-        1.0 / 13.0,
-        -1.0 / 11.0,
-        1.0 / 9.0,
-        -1.0 / 7.0,
-        1.0 / 5.0,
-        -1.0 / 3.0,
-        1.0,
-    ];
-    let mut p = 0.0;
-    for c in C {
-        p = p * z + c;
-    }
-    2.0 * s * p
-}
-
-#[cfg(test)]
-mod atan_tests {
-    use super::atan2_upper;
-
-    #[test]
-    fn matches_libm_over_the_upper_half_plane() {
-        for i in 0..=2000 {
-            let theta = std::f64::consts::PI * i as f64 / 2000.0;
-            for scale in [1e-30, 1e-6, 1.0, 1e6, 1e30] {
-                let (y, x) = (scale * theta.sin().abs(), scale * theta.cos());
-                let want = y.atan2(x);
-                let got = atan2_upper(y, x);
-                assert!(
-                    (got - want).abs() <= 1e-10 * want.max(1e-300),
-                    "{y} {x}: {got} vs {want}"
-                );
-            }
-        }
-        // Tiny angles keep relative precision.
-        for y in [1e-20, 1e-12, 1e-7] {
-            let got = atan2_upper(y, 1.0);
-            assert!((got - y).abs() <= 1e-12 * y);
-        }
-    }
 }
 
 /// Angle between two vectors, accurate near 0 and π (unlike acos of the dot).
