@@ -12,10 +12,10 @@ use super::gbuffer::{GSample, PixelKind};
 use super::mode::Mode;
 use super::shadow::{ShadowBatch, ShadowRay};
 use super::world::World;
-use crate::sampling::brdf_sample::{brdf_pdf, sample_brdf, spec_lobe_probability};
+use crate::sampling::brdf_sample::{brdf_pdf_local, sample_brdf, spec_lobe_probability};
 use crate::sampling::light::{LightSampler, sample_light_area_uniform};
 use crate::sampling::sequence::{sample_1d, sample_2d};
-use crate::shading::brdf::{self, alpha_from_roughness};
+use crate::shading::brdf::{Frame, alpha_from_roughness, eval_local};
 use crate::shading::{SurfacePoint, unshadowed_prepared};
 use glam::Vec3;
 
@@ -143,6 +143,10 @@ pub fn draw_samples(
     let p_spec = spec_lobe_probability(g.diffuse, g.specular, n.dot(wo));
     // Rough solid angle of the reflected GGX lobe, for the strategy choice.
     let lobe_solid_angle = 4.0 * std::f32::consts::PI * (2.0 * alpha).powi(2);
+    // One local frame per pixel for both the BRDF and its pdf (the pdf is
+    // isotropic, so it does not care which frame), instead of two per sample.
+    let frame = Frame::from_normal_view(n, wo);
+    let wo_l = frame.to_local(wo);
     // The light sampler of the last light chosen: its setup is per (light, point).
     let mut cached: Option<(usize, Option<LightSampler>)> = None;
     for s in 0..spp {
@@ -191,8 +195,9 @@ pub fn draw_samples(
         if cos <= 0.0 {
             continue;
         }
+        let wi_l = frame.to_local(wi);
         let pdf_brdf = if p_light_strategy < 1.0 {
-            brdf_pdf(n, wo, wi, alpha, p_spec)
+            brdf_pdf_local(wo_l, wi_l, alpha, p_spec)
         } else {
             0.0
         };
@@ -200,7 +205,7 @@ pub fn draw_samples(
         if !(pdf > 0.0 && pdf.is_finite()) {
             continue;
         }
-        let f = brdf::eval(n, wi, wo, g.diffuse, g.specular, g.roughness);
+        let f = eval_local(wi_l, wo_l, g.diffuse, g.specular, g.roughness);
         let w = f * light.radiance * (cos * inv_spp / (p_choose * pdf));
         if !w.is_finite() || w.max_element() <= 0.0 {
             continue;

@@ -177,3 +177,11 @@ pub fn brdf_pdf(n: Vec3, wo: Vec3, wi: Vec3, alpha: f32, p_spec: f32) -> f32 {
     let (t, b) = onb(n);
     pdf_local(to_local(wo, t, b, n), to_local(wi, t, b, n), alpha, p_spec)
 }
+
+/// `brdf_pdf` with `wo` and `wi` already in a local frame whose z is the
+/// shading normal. The lobes are isotropic, so any such frame gives the same
+/// density: the per-pixel estimator reuses the frame it evaluates the BRDF in
+/// instead of building a second one per sample.
+pub fn brdf_pdf_local(wo_l: Vec3, wi_l: Vec3, alpha: f32, p_spec: f32) -> f32 {
+    pdf_local(wo_l, wi_l, alpha, p_spec)
+}
