@@ -135,8 +135,16 @@ pub struct Denoiser {
     /// `prev` is read by reprojection while `cur` is written; swapped per frame.
     prev: history::History,
     cur: history::History,
-    /// Luminance of `U` per pixel (negative: no surface), the `U` edge guide.
-    lum_u: Vec<f32>,
+    /// Position, normal and `U` luminance (negative: no surface) per pixel,
+    /// packed so that one à-trous tap reads one small record instead of
+    /// three arrays.
+    guides: Vec<spatial::Guide>,
+    /// Ratio of the accumulated signals per pixel (from the temporal pass),
+    /// and of the two ping-pong buffers of the à-trous levels: computed once
+    /// per pixel and level instead of once per tap.
+    ratio_cur: Vec<f32>,
+    ratio_scratch: Vec<f32>,
+    ratio_out: Vec<f32>,
     /// Raw (this frame only) ratio per pixel, for the spatial noise estimate.
     raw_ratio: Vec<f32>,
     /// Class bits per pixel row and tile column (see `tiles`).
@@ -176,7 +184,10 @@ impl Denoiser {
             height,
             prev: history::History::new(n),
             cur: history::History::new(n),
-            lum_u: vec![0.0; n],
+            guides: vec![spatial::Guide::default(); n],
+            ratio_cur: vec![0.0; n],
+            ratio_scratch: vec![0.0; n],
+            ratio_out: vec![0.0; n],
             raw_ratio: vec![0.0; n],
             row_class: vec![0; height as usize * (width as usize).div_ceil(TILE)],
             sigma: vec![0.0; n],
@@ -246,7 +257,8 @@ impl Denoiser {
             guide,
             &self.prev,
             &mut self.cur,
-            &mut self.lum_u,
+            &mut self.guides,
+            &mut self.ratio_cur,
             &mut self.raw_ratio,
             &mut self.row_class,
             un,
@@ -272,9 +284,7 @@ impl Denoiser {
             );
             let inputs = spatial::Inputs {
                 width: guide.width as usize,
-                position: guide.position,
-                normal: guide.normal,
-                lum_u: &self.lum_u,
+                guides: &self.guides,
                 sigma: &self.sigma,
                 levels: &self.levels,
                 tiles: &self.tiles,
@@ -282,11 +292,18 @@ impl Denoiser {
             spatial::filter(
                 &inputs,
                 &self.cur,
+                &self.ratio_cur,
                 stats.levels,
-                un,
-                sn,
-                &mut self.scratch_un,
-                &mut self.scratch_sn,
+                spatial::Signals {
+                    un,
+                    sn,
+                    ratio: &mut self.ratio_out,
+                },
+                spatial::Signals {
+                    un: &mut self.scratch_un,
+                    sn: &mut self.scratch_sn,
+                    ratio: &mut self.ratio_scratch,
+                },
                 settings,
             );
             stats.spatial_ms = t1.elapsed().as_secs_f64() * 1e3;

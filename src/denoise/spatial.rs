@@ -30,13 +30,21 @@ fn falloff(e: f32) -> f32 {
     t4 * t4
 }
 
+/// What one tap needs of a pixel's guides, packed (28 bytes): the levels are
+/// bound by memory traffic, and three separate arrays meant three streams
+/// per tap.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Guide {
+    pub pos: Vec3,
+    pub normal: Vec3,
+    /// Luminance of `U`; negative where there is no surface.
+    pub lu: f32,
+}
+
 /// Per-frame inputs of the filter besides the signals.
 pub(crate) struct Inputs<'a> {
     pub width: usize,
-    pub position: &'a [Vec3],
-    pub normal: &'a [Vec3],
-    /// Luminance of `U`; negative where there is no surface.
-    pub lum_u: &'a [f32],
+    pub guides: &'a [Guide],
     /// Noise deviation of the accumulated ratio.
     pub sigma: &'a [f32],
     /// Levels each pixel takes part in.
@@ -44,44 +52,81 @@ pub(crate) struct Inputs<'a> {
     pub tiles: &'a Tiles,
 }
 
+/// One ping-pong buffer of the levels: both signals and their ratio, which is
+/// computed once when a level writes a pixel rather than by every tap that
+/// reads it.
+pub(crate) struct Signals<'a> {
+    pub un: &'a mut [Vec3],
+    pub sn: &'a mut [Vec3],
+    pub ratio: &'a mut [f32],
+}
+
+/// Read-only view of a source buffer of one level.
+#[derive(Clone, Copy)]
+struct Src<'a> {
+    un: &'a [Vec3],
+    sn: &'a [Vec3],
+    ratio: &'a [f32],
+}
+
 /// Runs `max_level` à-trous levels. Level 0 reads the accumulation kept in
-/// `cur`; the levels then ping-pong between the scratch buffers and the
-/// caller's so that the last one lands in `un`/`sn` without a final copy.
+/// `cur` (its ratio in `cur_ratio`); the levels then ping-pong between
+/// `scratch` and `out` (the caller's signals) so that the last one lands in
+/// `out` without a final copy.
 ///
 /// Skipped tiles are never touched by a level: the caller's buffers already
 /// hold their accumulated values (the temporal pass wrote them in place), and
-/// they are copied once into the scratch buffers when a level reads those,
-/// so neighbouring taps see them whichever buffer they read.
-#[allow(clippy::too_many_arguments)]
+/// they are copied once into the scratch buffers (and their ratio into both
+/// ratio buffers) when a level reads those, so neighbouring taps see them
+/// whichever buffer they read.
 pub(crate) fn filter(
     inp: &Inputs,
     cur: &History,
+    cur_ratio: &[f32],
     max_level: u8,
-    un: &mut [Vec3],
-    sn: &mut [Vec3],
-    scratch_un: &mut [Vec3],
-    scratch_sn: &mut [Vec3],
+    out: Signals,
+    scratch: Signals,
     s: &DenoiseSettings,
 ) {
     let ctx = Ctx {
         inp,
-        height: inp.lum_u.len() / inp.width,
+        height: inp.guides.len() / inp.width,
         inv_plane2: 1.0 / (s.sigma_plane * s.sigma_plane).max(1e-12),
         normal_power: s.normal_power,
         inv_u: 1.0 / s.sigma_u.max(1e-6),
         sigma_ratio: s.sigma_ratio,
     };
+    let (mut out, mut scratch) = (out, scratch);
     if max_level >= 2 {
-        ctx.copy_skipped(cur, scratch_un, scratch_sn);
+        ctx.copy_skipped(cur, cur_ratio, &mut scratch);
     }
+    if max_level >= 3 {
+        // Levels 2+ may read `out` as a source; its signals already hold the
+        // skipped tiles' values, their ratio does not yet.
+        out.ratio.copy_from_slice(cur_ratio);
+    }
+    let cur_src = Src {
+        un: &cur.un,
+        sn: &cur.sn,
+        ratio: cur_ratio,
+    };
     for level in 0..max_level {
         let to_caller = (max_level - 1 - level).is_multiple_of(2);
+        let last = level + 1 == max_level;
         match (level == 0, to_caller) {
-            (true, true) => ctx.level(level, &cur.un, &cur.sn, un, sn),
-            (true, false) => ctx.level(level, &cur.un, &cur.sn, scratch_un, scratch_sn),
-            (false, true) => ctx.level(level, scratch_un, scratch_sn, un, sn),
-            (false, false) => ctx.level(level, un, sn, scratch_un, scratch_sn),
+            (true, true) => ctx.level(level, cur_src, &mut out, last),
+            (true, false) => ctx.level(level, cur_src, &mut scratch, last),
+            (false, true) => ctx.level(level, view(&scratch), &mut out, last),
+            (false, false) => ctx.level(level, view(&out), &mut scratch, last),
         }
+    }
+}
+
+fn view<'a>(s: &'a Signals) -> Src<'a> {
+    Src {
+        un: s.un,
+        sn: s.sn,
+        ratio: s.ratio,
     }
 }
 
@@ -96,40 +141,43 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     /// Copies the accumulated values of skipped tiles into `dst`.
-    fn copy_skipped(&self, cur: &History, dst_un: &mut [Vec3], dst_sn: &mut [Vec3]) {
+    fn copy_skipped(&self, cur: &History, cur_ratio: &[f32], dst: &mut Signals) {
         let w = self.inp.width;
         let tiles = self.inp.tiles;
-        (dst_un.par_chunks_mut(w), dst_sn.par_chunks_mut(w))
+        (
+            dst.un.par_chunks_mut(w),
+            dst.sn.par_chunks_mut(w),
+            dst.ratio.par_chunks_mut(w),
+        )
             .into_par_iter()
             .enumerate()
-            .for_each(|(y, (du, ds))| {
+            .for_each(|(y, (du, ds, dr))| {
                 let row = y * w;
                 for tx in 0..tiles.columns() {
                     if tiles.skipped(tx, y / TILE) {
                         let (x0, x1) = (tx * TILE, (tx * TILE + TILE).min(w));
                         du[x0..x1].copy_from_slice(&cur.un[row + x0..row + x1]);
                         ds[x0..x1].copy_from_slice(&cur.sn[row + x0..row + x1]);
+                        dr[x0..x1].copy_from_slice(&cur_ratio[row + x0..row + x1]);
                     }
                 }
             });
     }
 
     /// One à-trous level with step 2^level over the tiles not skipped,
-    /// parallel over rows.
-    fn level(
-        &self,
-        level: u8,
-        src_un: &[Vec3],
-        src_sn: &[Vec3],
-        dst_un: &mut [Vec3],
-        dst_sn: &mut [Vec3],
-    ) {
+    /// parallel over rows. The last level's ratio is never read, so it is not
+    /// computed.
+    fn level(&self, level: u8, src: Src, dst: &mut Signals, last: bool) {
         let w = self.inp.width;
         let tiles = self.inp.tiles;
-        (dst_un.par_chunks_mut(w), dst_sn.par_chunks_mut(w))
+        (
+            dst.un.par_chunks_mut(w),
+            dst.sn.par_chunks_mut(w),
+            dst.ratio.par_chunks_mut(w),
+        )
             .into_par_iter()
             .enumerate()
-            .for_each(|(y, (du, ds))| {
+            .for_each(|(y, (du, ds, dr))| {
                 let row = y * w;
                 for tx in 0..tiles.columns() {
                     if tiles.skipped(tx, y / TILE) {
@@ -138,10 +186,16 @@ impl Ctx<'_> {
                     for x in tx * TILE..(tx * TILE + TILE).min(w) {
                         let i = row + x;
                         if self.inp.levels[i] <= level {
-                            du[x] = src_un[i];
-                            ds[x] = src_sn[i];
+                            du[x] = src.un[i];
+                            ds[x] = src.sn[i];
+                            dr[x] = src.ratio[i];
                         } else {
-                            (du[x], ds[x]) = self.tap_sum(level, x, y, src_un, src_sn);
+                            let (u, s) = self.tap_sum(level, x, y, src);
+                            du[x] = u;
+                            ds[x] = s;
+                            if !last {
+                                dr[x] = ratio(u, s);
+                            }
                         }
                     }
                 }
@@ -151,26 +205,19 @@ impl Ctx<'_> {
     /// Weighted 3x3 sum at step 2^level around (x, y); one weight per tap for
     /// both signals.
     #[inline]
-    fn tap_sum(
-        &self,
-        level: u8,
-        x: usize,
-        y: usize,
-        src_un: &[Vec3],
-        src_sn: &[Vec3],
-    ) -> (Vec3, Vec3) {
+    fn tap_sum(&self, level: u8, x: usize, y: usize, src: Src) -> (Vec3, Vec3) {
         let inp = self.inp;
         let (w, h) = (inp.width, self.height);
         let i = y * w + x;
-        let (p_pos, p_n, p_lu) = (inp.position[i], inp.normal[i], inp.lum_u[i]);
+        let p = inp.guides[i];
         let step = 1usize << level;
-        let rp = ratio(src_un[i], src_sn[i]);
+        let rp = src.ratio[i];
         // The ratio's noise shrinks about twofold per level already run.
         let sig = (inp.sigma[i] * self.sigma_ratio / step as f32).max(1e-4);
         let inv_sig = 1.0 / sig;
         let hc = KERNEL[1] * KERNEL[1];
-        let mut su = src_un[i] * hc;
-        let mut ss = src_sn[i] * hc;
+        let mut su = src.un[i] * hc;
+        let mut ss = src.sn[i] * hc;
         let mut wsum = hc;
         for (ky, &hy) in KERNEL.iter().enumerate() {
             let Some(ty) = offset(y, ky, step, h) else {
@@ -184,27 +231,27 @@ impl Ctx<'_> {
                     continue;
                 };
                 let j = ty * w + tx;
-                let q_lu = inp.lum_u[j];
-                if q_lu < 0.0 {
+                let q = inp.guides[j];
+                if q.lu < 0.0 {
                     continue; // no surface
                 }
                 // Plane: squared sine of the angle between p's tangent plane
                 // and the direction to q; scale-free, 0 on a common plane.
-                let d = inp.position[j] - p_pos;
-                let dn = p_n.dot(d);
+                let d = q.pos - p.pos;
+                let dn = p.normal.dot(d);
                 let e_plane = dn * dn * self.inv_plane2 / (d.length_squared() + 1e-30);
-                let e_normal = (1.0 - p_n.dot(inp.normal[j])).max(0.0) * self.normal_power;
-                let big = p_lu.max(q_lu);
+                let e_normal = (1.0 - p.normal.dot(q.normal)).max(0.0) * self.normal_power;
+                let big = p.lu.max(q.lu);
                 let e_u = if big > 1e-30 {
-                    (p_lu - q_lu).abs() * self.inv_u / big
+                    (p.lu - q.lu).abs() * self.inv_u / big
                 } else {
                     0.0
                 };
-                let e_r = (rp - ratio(src_un[j], src_sn[j])).abs() * inv_sig;
+                let e_r = (rp - src.ratio[j]).abs() * inv_sig;
                 let wt = hx * hy * falloff(e_plane + e_normal + e_u + e_r);
                 if wt > 0.0 {
-                    su += src_un[j] * wt;
-                    ss += src_sn[j] * wt;
+                    su += src.un[j] * wt;
+                    ss += src.sn[j] * wt;
                     wsum += wt;
                 }
             }

@@ -6,6 +6,7 @@
 //! only on the history length, never on the signal values.
 
 use super::history::{History, Meta, decode_normal, encode_normal};
+use super::spatial::Guide;
 use super::tiles::{self, TILE};
 use super::{DenoiseSettings, GuideBuffers, luminance, ratio};
 use glam::Vec3;
@@ -48,7 +49,8 @@ pub(crate) fn accumulate(
     guide: &GuideBuffers,
     prev: &History,
     cur: &mut History,
-    lum_u: &mut [f32],
+    guides: &mut [Guide],
+    acc_ratio: &mut [f32],
     raw_ratio: &mut [f32],
     row_class: &mut [u8],
     un: &mut [Vec3],
@@ -62,7 +64,7 @@ pub(crate) fn accumulate(
         cur.un.par_chunks_mut(w),
         cur.sn.par_chunks_mut(w),
         cur.meta.par_chunks_mut(w),
-        lum_u.par_chunks_mut(w),
+        (guides.par_chunks_mut(w), acc_ratio.par_chunks_mut(w)),
         raw_ratio.par_chunks_mut(w),
         row_class.par_chunks_mut(tw),
         un.par_chunks_mut(w),
@@ -70,7 +72,7 @@ pub(crate) fn accumulate(
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(y, (h_un, h_sn, h_meta, lum, raw, class, un, sn))| {
+        .for_each(|(y, (h_un, h_sn, h_meta, (gd, ar), raw, class, un, sn))| {
             // Tile classification rides along: this pass reads every pixel
             // anyway, a separate pass would read them all again.
             class.fill(tiles::UNIFORM);
@@ -83,7 +85,8 @@ pub(crate) fn accumulate(
                     h_un[x] = un[x];
                     h_sn[x] = sn[x];
                     h_meta[x] = Meta::default();
-                    lum[x] = -1.0;
+                    gd[x].lu = -1.0;
+                    ar[x] = ratio(un[x], sn[x]);
                     raw[x] = 1.0;
                     continue;
                 }
@@ -129,7 +132,8 @@ pub(crate) fn accumulate(
                     m2,
                     len,
                 };
-                lum[x] = lu;
+                gd[x] = Guide { pos, normal, lu };
+                ar[x] = ratio(acc_u, acc_s);
                 raw[x] = r;
                 class[x / TILE] &= tiles::pixel_class(acc_u, acc_s);
             }
@@ -229,7 +233,9 @@ fn floor(v: f32) -> i64 {
 }
 
 /// dot(a / |a|, b) >= min_dot for unit `b`, without normalising `a`.
-#[inline]
+/// Forced inline: left as a call it showed up on its own in profiles of the
+/// per-tap reprojection test.
+#[inline(always)]
 fn normal_close(a: Vec3, b: Vec3, min_dot: f32) -> bool {
     let d = a.dot(b);
     if min_dot >= 0.0 {
