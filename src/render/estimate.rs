@@ -28,6 +28,8 @@ const DIM_LIGHT: u32 = 0;
 const DIM_STRATEGY: u32 = 1;
 const DIM_LOBE: u32 = 2;
 const DIM_DIR: u32 = 3;
+/// Sub-pixel position of the reference's camera rays.
+pub const DIM_JITTER: u32 = 4;
 
 /// Share of light choice spread uniformly over the lights, so a light whose
 /// analytic `U` is (wrongly or barely) zero still gets samples: the

@@ -3,7 +3,6 @@
 pub mod estimate;
 pub mod frame;
 pub mod gbuffer;
-mod hash;
 pub mod mode;
 pub mod primary;
 pub mod shadow;

@@ -24,9 +24,12 @@ impl PixelOffset {
     fn at(self, pixel: u32) -> Vec2 {
         match self {
             PixelOffset::Centre => Vec2::splat(0.5),
-            PixelOffset::Jitter { seed, sample } => {
-                super::hash::unit2(pixel, sample, seed ^ 0x6a09_e667)
-            }
+            PixelOffset::Jitter { seed, sample } => crate::sampling::sequence::sample_2d(
+                pixel,
+                sample,
+                super::estimate::DIM_JITTER,
+                seed,
+            ),
         }
     }
 }

@@ -9,7 +9,7 @@
 //! Visible GGX Normals with Spherical Caps"): the same distribution, fewer
 //! operations and no special case at normal incidence.
 
-use super::ggx;
+use crate::shading::brdf;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -57,10 +57,10 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     Vec3::new(d.x, d.y, z)
 }
 
-/// Clamped GGX alpha (see `ggx::MIN_ALPHA`).
+/// Clamped GGX alpha (see `brdf::MIN_ALPHA`).
 #[inline]
 fn clamp_alpha(alpha: f32) -> f32 {
-    alpha.max(ggx::MIN_ALPHA)
+    alpha.max(brdf::MIN_ALPHA)
 }
 
 /// A GGX visible normal for local view `wo` (z up, wo.z > 0), `u` in [0,1)².
@@ -95,7 +95,7 @@ pub fn vndf_pdf(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
     if wo.dot(h) <= 0.0 || h.z <= 0.0 {
         return 0.0;
     }
-    ggx::g1(wo, alpha) * ggx::d(h, alpha) / (4.0 * wo.z)
+    brdf::smith_g1(alpha, wo) * brdf::ggx_d(alpha, h) / (4.0 * wo.z)
 }
 
 /// Probability of choosing the specular lobe, proportional to an estimate of

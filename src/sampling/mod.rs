@@ -4,7 +4,6 @@
 //! the renderer combines them.
 
 pub mod brdf_sample;
-mod ggx;
 pub mod light;
 pub mod mis;
 pub mod sequence;
