@@ -5,26 +5,12 @@ use common::{Job, render};
 use glam::Vec3;
 use penumbra::render::PixelKind;
 use penumbra::scene::Scene;
-use std::path::Path;
 
-const PLANE: &str = r#"
+const CAMERA_AND_LIGHT: &str = r#"
 [camera]
 eye    = [0.3, 2.0, -3.0]
 target = [0.0, 0.0, 0.5]
 fov_y  = 50.0
-
-[[material]]
-name = "m"
-diffuse = [0.5, 0.5, 0.5]
-specular = [0.0, 0.0, 0.0]
-roughness = 0.5
-
-[[object]]
-material = "m"
-type = "quad"
-center = [0.0, 0.0, 0.0]
-u = [0.0, 0.0, 4.0]
-v = [4.0, 0.0, 0.0]
 
 [[light]]
 type = "quad"
@@ -35,7 +21,7 @@ radiance = [5.0, 5.0, 5.0]
 "#;
 
 fn plane_scene() -> Scene {
-    Scene::parse(PLANE, Path::new("plane.toml")).unwrap_or_else(|e| panic!("{e}"))
+    common::parse(&format!("{CAMERA_AND_LIGHT}{}", common::FLOOR))
 }
 
 #[test]

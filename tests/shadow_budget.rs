@@ -1,29 +1,16 @@
 //! Shadow rays per pixel, and the ratio where the estimates carry no energy.
+mod common;
+
 use glam::Vec3;
 use penumbra::embree::{self, Device};
 use penumbra::render::estimate::ratio;
 use penumbra::render::{Frame, Mode, PixelKind, RenderSettings, World};
-use penumbra::scene::Scene;
-use std::path::Path;
 
-const ONE_LIGHT: &str = r#"
+const CAMERA_AND_BOX: &str = r#"
 [camera]
 eye    = [0.0, 3.0, -6.0]
 target = [0.0, 0.0, 0.0]
 fov_y  = 50.0
-
-[[material]]
-name = "m"
-diffuse = [0.5, 0.5, 0.5]
-specular = [0.04, 0.04, 0.04]
-roughness = 0.4
-
-[[object]]
-material = "m"
-type = "quad"
-center = [0.0, 0.0, 0.0]
-u = [0.0, 0.0, 4.0]
-v = [4.0, 0.0, 0.0]
 
 [[object]]
 material = "m"
@@ -40,7 +27,7 @@ fn light(x: f32) -> String {
 
 /// Shadow rays traced per surface pixel in one frame of `spp` samples.
 fn rays_per_surface_pixel(text: &str, spp: u32) -> f64 {
-    let scene = Scene::parse(text, Path::new("budget.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let scene = common::parse(text);
     let camera = scene.camera;
     let device = Device::new().unwrap();
     let world = World::build(&device, scene).unwrap();
@@ -64,9 +51,10 @@ fn rays_per_surface_pixel(text: &str, spp: u32) -> f64 {
 
 #[test]
 fn shadow_rays_per_pixel_do_not_grow_with_the_number_of_lights() {
-    let one = format!("{ONE_LIGHT}{}", light(0.0));
+    let base = format!("{CAMERA_AND_BOX}{}", common::FLOOR);
+    let one = format!("{base}{}", light(0.0));
     let four = format!(
-        "{ONE_LIGHT}{}{}{}{}",
+        "{base}{}{}{}{}",
         light(-1.5),
         light(-0.5),
         light(0.5),

@@ -6,6 +6,28 @@ use penumbra::render::{Frame, Mode, RenderSettings, World};
 use penumbra::scene::Scene;
 use std::path::{Path, PathBuf};
 
+/// A grey material "m" and an 8x8 floor quad at y = 0 centred on the origin;
+/// inline test scenes add a camera, lights and occluders around it.
+pub const FLOOR: &str = r#"
+[[material]]
+name = "m"
+diffuse = [0.5, 0.5, 0.5]
+specular = [0.04, 0.04, 0.04]
+roughness = 0.4
+
+[[object]]
+material = "m"
+type = "quad"
+center = [0.0, 0.0, 0.0]
+u = [0.0, 0.0, 4.0]
+v = [4.0, 0.0, 0.0]
+"#;
+
+/// Parses inline scene text, panicking with the loader's message.
+pub fn parse(text: &str) -> Scene {
+    Scene::parse(text, Path::new("inline.toml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
 pub fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes")
