@@ -15,17 +15,7 @@ const MXCSR_DAZ: u32 = 1 << 6;
 pub fn set_flush_denormals() {
     #[cfg(target_arch = "x86_64")]
     {
-        let mut csr: u32 = 0;
-        // SAFETY: `stmxcsr` stores the 4-byte MXCSR into `csr`, a live, aligned
-        // local we hold a unique borrow of; it touches no other memory or flags.
-        unsafe {
-            core::arch::asm!(
-                "stmxcsr [{p}]",
-                p = in(reg) &mut csr as *mut u32,
-                options(nostack, preserves_flags)
-            );
-        }
-        csr |= MXCSR_FTZ | MXCSR_DAZ;
+        let csr = read_mxcsr() | MXCSR_FTZ | MXCSR_DAZ;
         // SAFETY: `ldmxcsr` reads 4 bytes from `csr`, a live local. It only sets
         // the FTZ/DAZ bits of this thread's MXCSR (rounding mode and exception
         // masks are kept), so the only observable effect is that subnormal
@@ -42,11 +32,12 @@ pub fn set_flush_denormals() {
     }
 }
 
-/// Reads this thread's MXCSR (tests check that FTZ/DAZ are really set).
+/// This thread's MXCSR register.
 #[cfg(target_arch = "x86_64")]
-pub fn flush_denormals_enabled() -> bool {
+fn read_mxcsr() -> u32 {
     let mut csr: u32 = 0;
-    // SAFETY: `stmxcsr` only stores 4 bytes into `csr`, a live local.
+    // SAFETY: `stmxcsr` stores the 4-byte MXCSR into `csr`, a live, aligned
+    // local we hold a unique borrow of; it touches no other memory or flags.
     unsafe {
         core::arch::asm!(
             "stmxcsr [{p}]",
@@ -54,7 +45,13 @@ pub fn flush_denormals_enabled() -> bool {
             options(nostack, preserves_flags)
         );
     }
-    csr & (MXCSR_FTZ | MXCSR_DAZ) == MXCSR_FTZ | MXCSR_DAZ
+    csr
+}
+
+/// Reads this thread's MXCSR (tests check that FTZ/DAZ are really set).
+#[cfg(target_arch = "x86_64")]
+pub fn flush_denormals_enabled() -> bool {
+    read_mxcsr() & (MXCSR_FTZ | MXCSR_DAZ) == MXCSR_FTZ | MXCSR_DAZ
 }
 
 /// On targets without MXCSR there is nothing to enable.

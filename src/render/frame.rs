@@ -43,6 +43,81 @@ impl Default for RenderSettings {
     }
 }
 
+/// What a band pass computes: where its camera rays go and which samples
+/// it draws. The same steps serve every mode, the reference included.
+#[derive(Clone, Copy)]
+struct BandJob<'a, 'd> {
+    world: &'a World<'d>,
+    cam: &'a CameraFrame,
+    prev: &'a CameraFrame,
+    offset: PixelOffset,
+    /// `None`: no samples (`U` only).
+    estimator: Option<Estimator>,
+    first_sample: u32,
+    spp: u32,
+    seed: u32,
+    packet: PacketWidth,
+    clock: &'a PhaseClock,
+}
+
+impl BandJob<'_, '_> {
+    /// Primary rays, `U` per light, then samples and their shadow rays for
+    /// the band starting at row `y0`. Returns the time it finished, for the
+    /// next stage's clock.
+    fn run(
+        &self,
+        y0: u32,
+        scratch: &mut BandScratch,
+        gbuf: &mut [GSample],
+        u: &mut [Vec3],
+        un: &mut [Vec3],
+        sn: &mut [Vec3],
+    ) -> Instant {
+        let (world, clock) = (self.world, self.clock);
+        let t = Instant::now();
+        trace_rows(world, self.cam, self.prev, y0, self.offset, gbuf);
+        let t = PhaseClock::add(&clock.primary, t);
+        let lights = world.scene.lights.len();
+        scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
+        for (k, (g, u)) in gbuf.iter().zip(u.iter_mut()).enumerate() {
+            *u = analytic_u(
+                world,
+                g,
+                &mut scratch.per_light[k * lights..(k + 1) * lights],
+            );
+        }
+        let t = PhaseClock::add(&clock.u, t);
+        un.fill(Vec3::ZERO);
+        sn.fill(Vec3::ZERO);
+        let Some(est) = self.estimator else {
+            return t;
+        };
+        scratch.batch.clear();
+        let width = self.cam.width;
+        for (k, g) in gbuf.iter().enumerate() {
+            draw_samples(
+                world,
+                g,
+                &scratch.per_light[k * lights..(k + 1) * lights],
+                u[k],
+                est,
+                (y0 * width + k as u32, self.first_sample, self.seed),
+                self.spp,
+                k as u32,
+                &mut un[k],
+                &mut scratch.batch,
+            );
+        }
+        scratch
+            .batch
+            .trace(&world.rt, self.packet, |r| sn[r.slot as usize] += r.weight);
+        clock
+            .shadow_rays
+            .fetch_add(scratch.batch.rays.len() as u64, Ordering::Relaxed);
+        PhaseClock::add(&clock.shadow, t)
+    }
+}
+
 /// Per-thread working memory, reused across bands.
 #[derive(Default)]
 struct BandScratch {
@@ -205,59 +280,29 @@ impl Frame {
         clock: &PhaseClock,
         composite: bool,
     ) {
-        let width = self.width;
-        let lights = world.scene.lights.len();
         let estimator = match settings.mode {
             Mode::Ratio | Mode::Stochastic => Some(Estimator::Mis),
             Mode::SoftShadow => Some(Estimator::AreaVisibility),
             Mode::Unshadowed | Mode::Reference => None,
         };
         let first_sample = self.frame_index.wrapping_mul(settings.spp);
+        let job = BandJob {
+            world,
+            cam,
+            prev,
+            offset: PixelOffset::Centre,
+            estimator,
+            first_sample,
+            spp: settings.spp,
+            seed: settings.seed,
+            packet: settings.packet,
+            clock,
+        };
         self.bands()
             .into_par_iter()
             .for_each_init(BandScratch::default, |scratch, mut band| {
-                let t = Instant::now();
-                trace_rows(world, cam, prev, band.y0, PixelOffset::Centre, band.gbuf);
-                let t = PhaseClock::add(&clock.primary, t);
                 let n = band.gbuf.len();
-                scratch.per_light.resize(n * lights, Vec3::ZERO);
-                for (k, (g, u)) in band.gbuf.iter().zip(band.u.iter_mut()).enumerate() {
-                    *u = analytic_u(
-                        world,
-                        g,
-                        &mut scratch.per_light[k * lights..(k + 1) * lights],
-                    );
-                }
-                let t = PhaseClock::add(&clock.u, t);
-                band.un.fill(Vec3::ZERO);
-                band.sn.fill(Vec3::ZERO);
-                let t = if let Some(est) = estimator {
-                    scratch.batch.clear();
-                    for (k, g) in band.gbuf.iter().enumerate() {
-                        draw_samples(
-                            world,
-                            g,
-                            &scratch.per_light[k * lights..(k + 1) * lights],
-                            band.u[k],
-                            est,
-                            (band.y0 * width + k as u32, first_sample, settings.seed),
-                            settings.spp,
-                            k as u32,
-                            &mut band.un[k],
-                            &mut scratch.batch,
-                        );
-                    }
-                    let sn = &mut *band.sn;
-                    scratch.batch.trace(&world.rt, settings.packet, |r| {
-                        sn[r.slot as usize] += r.weight
-                    });
-                    clock
-                        .shadow_rays
-                        .fetch_add(scratch.batch.rays.len() as u64, Ordering::Relaxed);
-                    PhaseClock::add(&clock.shadow, t)
-                } else {
-                    t
-                };
+                let t = job.run(band.y0, scratch, band.gbuf, band.u, band.un, band.sn);
                 if composite {
                     for k in 0..n {
                         band.color[k] = shade(
@@ -366,8 +411,6 @@ impl Frame {
             self.accum_spp = 0;
         }
         let band = (BAND_ROWS * self.width) as usize;
-        let width = self.width;
-        let lights = world.scene.lights.len();
         let first = self.accum_spp;
         self.gbuf
             .par_chunks_mut(band)
@@ -380,50 +423,25 @@ impl Frame {
                 BandScratch::default,
                 |scratch, (b, ((((gbuf, u), un), sn), accum))| {
                     let y0 = b as u32 * BAND_ROWS;
-                    scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
                     for s in 0..settings.spp {
                         let index = first.wrapping_add(s);
-                        let t = Instant::now();
-                        let jitter = PixelOffset::Jitter {
+                        let job = BandJob {
+                            world,
+                            cam,
+                            // The reference never reprojects: the camera is its own previous camera.
+                            prev: cam,
+                            offset: PixelOffset::Jitter {
+                                seed: settings.seed,
+                                sample: index,
+                            },
+                            estimator: Some(Estimator::Mis),
+                            first_sample: index,
+                            spp: 1,
                             seed: settings.seed,
-                            sample: index,
+                            packet: settings.packet,
+                            clock,
                         };
-                        // The reference never reprojects: the camera is its own previous camera.
-                        trace_rows(world, cam, cam, y0, jitter, gbuf);
-                        let t = PhaseClock::add(&clock.primary, t);
-                        for (k, (g, u)) in gbuf.iter().zip(u.iter_mut()).enumerate() {
-                            *u = analytic_u(
-                                world,
-                                g,
-                                &mut scratch.per_light[k * lights..(k + 1) * lights],
-                            );
-                        }
-                        let t = PhaseClock::add(&clock.u, t);
-                        un.fill(Vec3::ZERO);
-                        sn.fill(Vec3::ZERO);
-                        scratch.batch.clear();
-                        for (k, g) in gbuf.iter().enumerate() {
-                            let pixel = y0 * width + k as u32;
-                            draw_samples(
-                                world,
-                                g,
-                                &scratch.per_light[k * lights..(k + 1) * lights],
-                                u[k],
-                                Estimator::Mis,
-                                (pixel, index, settings.seed),
-                                1,
-                                k as u32,
-                                &mut un[k],
-                                &mut scratch.batch,
-                            );
-                        }
-                        scratch.batch.trace(&world.rt, settings.packet, |r| {
-                            sn[r.slot as usize] += r.weight
-                        });
-                        clock
-                            .shadow_rays
-                            .fetch_add(scratch.batch.rays.len() as u64, Ordering::Relaxed);
-                        let t = PhaseClock::add(&clock.shadow, t);
+                        let t = job.run(y0, scratch, gbuf, u, un, sn);
                         for k in 0..gbuf.len() {
                             accum[k] += finite_or_zero(gbuf[k].emission + sn[k]);
                         }
