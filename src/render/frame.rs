@@ -214,11 +214,6 @@ impl Frame {
         self.prev_camera = None;
     }
 
-    /// Samples per pixel accumulated by `reference` so far.
-    pub fn accumulated_spp(&self) -> u32 {
-        self.accum_spp
-    }
-
     /// Renders one frame of `camera` into the buffers. Must run inside the
     /// rayon pool that should do the work.
     pub fn render(
@@ -455,11 +450,6 @@ impl Frame {
             .par_iter_mut()
             .zip(&self.accum)
             .for_each(|(c, a)| *c = *a * inv);
-    }
-
-    /// Whether pixel `k` shows a receiver surface.
-    pub fn is_surface(&self, k: usize) -> bool {
-        self.gbuf[k].kind == PixelKind::Surface
     }
 }
 
