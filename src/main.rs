@@ -90,9 +90,16 @@ struct ViewArgs {
     /// Close after this many frames (for scripted runs).
     #[arg(long)]
     frames: Option<u32>,
-    /// Write the last frame shown to this PNG.
+    /// Write the last frame shown to this PNG (as shown, overlay included)
+    /// and the linear frame beside it as EXR.
     #[arg(long)]
     screenshot: Option<PathBuf>,
+    /// Replay timed key and mouse events from this file (see README, "Viewer").
+    #[arg(long)]
+    script: Option<PathBuf>,
+    /// Draw the overlay (mode, timings, fps): on | off. Key O toggles it.
+    #[arg(long, default_value = "on")]
+    overlay: Switch,
 }
 
 #[derive(Args)]
@@ -234,8 +241,10 @@ fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {
         seed: a.common.seed,
         denoise: a.common.denoise == Switch::On,
         exposure: a.common.exposure,
+        overlay: a.overlay == Switch::On,
         frames: a.frames,
         screenshot: a.screenshot,
+        script: a.script,
     }
 }
 

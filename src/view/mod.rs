@@ -1,7 +1,13 @@
 //! The interactive window (minifb): render continuously, fly the camera,
-//! switch modes.
+//! switch modes, show an overlay, replay scripts.
 
 mod controls;
+pub mod font;
+pub mod input;
+pub mod overlay;
+pub mod present;
+pub mod script;
+mod session;
 mod window;
 
 pub use window::{ViewOptions, run};

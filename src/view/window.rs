@@ -1,11 +1,17 @@
-use super::controls::Flyer;
+//! The window loop (minifb): gather input from the window and the script,
+//! render, present, write screenshots. Nothing here waits: minifb's rate
+//! limit is off, so the loop runs as fast as frames render.
+
+use super::input::{Action, FrameInput};
+use super::present;
+use super::script::{Player, SCRIPT_DT, Script};
+use super::session::Session;
 use crate::embree::{self, Device};
-use crate::output;
-use crate::render::{Frame, Mode, RenderSettings, World};
+use crate::render::{Mode, RenderSettings, World};
 use crate::scene::Scene;
 use anyhow::{Context, Result, bail};
-use minifb::{Key, KeyRepeat, MouseButton, MouseMode, Window, WindowOptions};
-use std::path::PathBuf;
+use minifb::{Key, KeyRepeat, MouseButton, MouseMode, ScaleMode, Window, WindowOptions};
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 pub struct ViewOptions {
@@ -18,26 +24,26 @@ pub struct ViewOptions {
     pub seed: u32,
     pub denoise: bool,
     pub exposure: f32,
+    /// Draw the overlay (key `O` toggles it).
+    pub overlay: bool,
     /// Close after this many frames.
     pub frames: Option<u32>,
-    /// PNG of the last frame shown.
+    /// PNG of the last frame shown (and the linear EXR beside it).
     pub screenshot: Option<PathBuf>,
+    /// Timed key and mouse events to replay.
+    pub script: Option<PathBuf>,
 }
 
-const MODE_KEYS: [(Key, Mode); 5] = [
-    (Key::Key1, Mode::Ratio),
-    (Key::Key2, Mode::Stochastic),
-    (Key::Key3, Mode::SoftShadow),
-    (Key::Key4, Mode::Unshadowed),
-    (Key::Key5, Mode::Reference),
-];
+fn no_window(why: &str) -> anyhow::Error {
+    anyhow::anyhow!("{why}; use `penumbra render SCENE --out frame.png` instead")
+}
 
 pub fn run(opts: ViewOptions) -> Result<()> {
-    if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
-        bail!(
-            "no display to open a window on (DISPLAY is not set); use `penumbra render SCENE --out frame.png` instead"
-        );
+    // Everything that can be checked without a window is checked first.
+    if let Some(p) = &opts.screenshot {
+        check_png(p)?;
     }
+    let script = opts.script.as_deref().map(Script::load).transpose()?;
     let scene = match &opts.scene {
         Some(p) => Scene::load(p)?,
         None => Scene::builtin(),
@@ -45,88 +51,193 @@ pub fn run(opts: ViewOptions) -> Result<()> {
     let w = opts.width.unwrap_or(scene.width);
     let h = opts.height.unwrap_or(scene.height);
     crate::scene::check_resolution(w, h).map_err(anyhow::Error::msg)?;
-    let mut window = Window::new("penumbra", w as usize, h as usize, WindowOptions::default())
-        .map_err(|e| {
-            anyhow::anyhow!(
-                "cannot open a window ({e}); use `penumbra render SCENE --out frame.png` instead"
-            )
-        })?;
+    if opts.frames == Some(0) {
+        bail!("--frames must be at least 1");
+    }
+    if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
+        return Err(no_window(
+            "no display to open a window on (DISPLAY is not set)",
+        ));
+    }
+    let options = WindowOptions {
+        resize: true,
+        scale_mode: ScaleMode::Stretch,
+        ..WindowOptions::default()
+    };
+    let mut window = Window::new("penumbra", w as usize, h as usize, options)
+        .map_err(|e| no_window(&format!("cannot open a window ({e})")))?;
+    // No rate limit: rendering paces the loop, and presenting never sleeps.
+    window.set_target_fps(0);
+
     let device = Device::new().context("starting Embree")?;
-    let mut flyer = Flyer::from_camera(&scene.camera);
+    let camera = scene.camera;
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
     let pool = embree::thread_pool(opts.threads)?;
-    let mut settings = RenderSettings {
+    let settings = RenderSettings {
         mode: if opts.mode.available() {
             opts.mode
         } else {
             Mode::Unshadowed
         },
-        spp: opts.spp,
+        spp: opts.spp.max(1),
         seed: opts.seed,
         denoise: opts.denoise,
         ..RenderSettings::default()
     };
-    let mut frame = Frame::new(w, h);
-    let mut pixels = vec![0u32; frame.pixel_count()];
-    let exposure = opts.exposure.exp2();
-    let mut last_mouse: Option<(f32, f32)> = None;
+    let mut session = Session::new(settings, &camera, w, h, opts.exposure, opts.overlay);
+    let scripted = script.is_some();
+    let mut player = script.map(Player::new);
+    let mut mouse = MouseDrag::default();
+    let mut window_size = window.get_size();
     let mut shown = 0u32;
     let mut last = Instant::now();
-    while window.is_open() && !window.is_key_down(Key::Escape) {
-        let now = Instant::now();
-        let dt = (now - last).as_secs_f32().min(0.25);
-        last = now;
-        for (key, mode) in MODE_KEYS {
-            if window.is_key_pressed(key, KeyRepeat::No) && mode.available() {
-                settings.mode = mode;
-                frame.reset_history();
-            }
-        }
-        let axis = |a: Key, b: Key| {
-            window.is_key_down(a) as i32 as f32 - window.is_key_down(b) as i32 as f32
-        };
-        flyer.travel(
-            axis(Key::D, Key::A),
-            axis(Key::E, Key::Q),
-            axis(Key::W, Key::S),
-            dt,
-        );
-        flyer.look(
-            axis(Key::Right, Key::Left) * dt * 1.5,
-            axis(Key::Up, Key::Down) * dt * 1.5,
-        );
-        let mouse = window.get_mouse_pos(MouseMode::Pass);
-        if window.get_mouse_down(MouseButton::Left) {
-            if let (Some((x0, y0)), Some((x, y))) = (last_mouse, mouse) {
-                flyer.look((x - x0) * 0.005, (y0 - y) * 0.005);
-            }
-            last_mouse = mouse;
+
+    while window.is_open() {
+        let start = Instant::now();
+        let dt = if scripted {
+            SCRIPT_DT
         } else {
-            last_mouse = None;
+            (start - last).as_secs_f32().min(0.25)
+        };
+        last = start;
+
+        let mut input = mouse.gather(&window);
+        if let Some(p) = player.as_mut() {
+            p.feed(shown, &mut input);
         }
-        let camera = flyer.camera();
-        let times = pool.install(|| frame.render(&world, &camera, &settings));
-        for (p, c) in pixels.iter_mut().zip(&frame.color) {
-            let [r, g, b] = output::display_rgb8(*c, exposure);
-            *p = (r as u32) << 16 | (g as u32) << 8 | b as u32;
+        let mut shoot: Vec<Option<PathBuf>> = Vec::new();
+        let mut quit = input.quit;
+        for action in input.actions() {
+            match action {
+                Action::Screenshot => shoot.push(None),
+                a => quit |= !session.apply(a),
+            }
         }
-        window
-            .update_with_buffer(&pixels, w as usize, h as usize)
-            .context("presenting the frame")?;
-        window.set_title(&format!(
-            "penumbra — {} — {} spp — {:.1} ms",
-            settings.mode,
-            settings.spp,
-            times.wall * 1e3
-        ));
-        shown += 1;
-        if opts.frames.is_some_and(|n| shown >= n) {
+        // Screenshots show what is on screen now, before the next frame.
+        shoot.extend(input.screenshots.drain(..).map(Some));
+        if shown > 0 {
+            take_screenshots(&mut session, shoot)?;
+        }
+        if quit || opts.frames.is_some_and(|n| shown >= n) {
             break;
         }
+        session.steer(&input, dt);
+        let now_size = window.get_size();
+        if let Some((rw, rh)) = input.resize {
+            session.resize(rw, rh);
+        } else if now_size != window_size {
+            // The user resized the window: render at its new size.
+            session.resize(now_size.0 as u32, now_size.1 as u32);
+        }
+        window_size = now_size;
+
+        let times = pool.install(|| session.render(&world));
+        let t = Instant::now();
+        pool.install(|| session.compose());
+        let (fw, fh) = session.size();
+        window
+            .update_with_buffer(&session.pixels, fw as usize, fh as usize)
+            .context("presenting the frame")?;
+        window.set_title(&session.readout().title());
+        let present = t.elapsed().as_secs_f64();
+        session.record(&times, present, start.elapsed().as_secs_f64());
+        shown += 1;
     }
     if let Some(path) = &opts.screenshot {
-        output::write_png(path, w, h, &frame.color, opts.exposure)?;
-        println!("{}", path.display());
+        for p in present::save_screenshot(
+            path,
+            session.frame.width,
+            session.frame.height,
+            &session.pixels,
+            &session.frame.color,
+        )? {
+            println!("{}", p.display());
+        }
+    }
+    eprintln!("{}", session.summary());
+    Ok(())
+}
+
+fn check_png(p: &Path) -> Result<()> {
+    if !p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        bail!(
+            "{}: --screenshot must end in .png (the linear EXR goes beside it)",
+            p.display()
+        );
     }
     Ok(())
+}
+
+/// Writes each requested screenshot (`None`: a `P` press, named by
+/// number in the current folder). A failed `P` is reported and the session
+/// goes on; a scripted screenshot that fails fails the run.
+fn take_screenshots(session: &mut Session, requests: Vec<Option<PathBuf>>) -> Result<()> {
+    for request in requests {
+        let interactive = request.is_none();
+        let path = request.unwrap_or_else(|| present::next_screenshot_path(Path::new(".")));
+        match screenshot(session, &path) {
+            Ok(msg) => {
+                eprintln!("penumbra: {msg}");
+                session.set_status(msg.to_uppercase());
+            }
+            Err(e) if interactive => {
+                eprintln!("penumbra: {e:#}");
+                session.set_status("SCREENSHOT FAILED (SEE STDERR)".into());
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
+}
+
+/// Writes what the window shows now; returns a message saying where.
+fn screenshot(session: &Session, path: &Path) -> Result<String> {
+    let [png, exr] = present::save_screenshot(
+        path,
+        session.frame.width,
+        session.frame.height,
+        &session.pixels,
+        &session.frame.color,
+    )?;
+    Ok(format!("saved {} and {}", png.display(), exr.display()))
+}
+
+/// The window's side of a frame's input; remembers where a drag was.
+#[derive(Default)]
+struct MouseDrag {
+    last: Option<(f32, f32)>,
+}
+
+impl MouseDrag {
+    fn gather(&mut self, window: &Window) -> FrameInput {
+        let mut input = FrameInput {
+            pressed: window.get_keys_pressed(KeyRepeat::No),
+            held: window.get_keys(),
+            ..FrameInput::default()
+        };
+        // `+` shares a key with `=` on most layouts; repeating it while held
+        // is what people expect of a speed key.
+        for key in window.get_keys_pressed(KeyRepeat::Yes) {
+            if matches!(
+                key,
+                Key::Equal | Key::Minus | Key::NumPadPlus | Key::NumPadMinus
+            ) && !input.pressed.contains(&key)
+            {
+                input.pressed.push(key);
+            }
+        }
+        let pos = window.get_mouse_pos(MouseMode::Pass);
+        if window.get_mouse_down(MouseButton::Left) {
+            if let (Some((x0, y0)), Some((x, y))) = (self.last, pos) {
+                input.drag = (x - x0, y - y0);
+            }
+            self.last = pos;
+        } else {
+            self.last = None;
+        }
+        if let Some((_, y)) = window.get_scroll_wheel() {
+            input.scroll = y;
+        }
+        input
+    }
 }

@@ -1,0 +1,326 @@
+//! The viewer's state between frames, apart from the window itself: what is
+//! rendered (settings, camera, frame buffers), what is shown (window pixels,
+//! overlay), and the figures of the frames so far.
+
+use super::controls::Flyer;
+use super::input::{Action, FrameInput};
+use super::overlay::{self, FrameTiming, Readout};
+use super::present;
+use crate::render::{Frame, Mode, PhaseTimes, RenderSettings, World};
+use crate::scene::Camera;
+use std::time::{Duration, Instant};
+
+/// Look sensitivity: radians per pixel dragged, and per second of arrow key.
+const DRAG_RADIANS: f32 = 0.005;
+const ARROW_RADIANS: f32 = 1.5;
+/// Speed steps (scroll notch, +/-) and the samples-per-frame range.
+const SPEED_STEP: f32 = 1.25;
+const MAX_SPP: u32 = 256;
+/// How long a status message stays in the overlay.
+const STATUS_FOR: Duration = Duration::from_secs(4);
+
+pub struct Session {
+    pub settings: RenderSettings,
+    pub flyer: Flyer,
+    pub frame: Frame,
+    /// The window's pixels, 0RGB, the frame's size.
+    pub pixels: Vec<u32>,
+    exposure_scale: f32,
+    pub overlay: bool,
+    help: bool,
+    /// `reference`: samples per pixel accumulated on the current view.
+    accumulated: u32,
+    last_camera: Option<Camera>,
+    status: Option<(String, Instant)>,
+    /// Every shown frame's figures, for the closing summary.
+    pub timings: Vec<FrameTiming>,
+    smoothed: FrameTiming,
+    /// Pixels that came out of the renderer non-finite (shown black).
+    pub non_finite: u64,
+}
+
+impl Session {
+    pub fn new(
+        settings: RenderSettings,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        exposure: f32,
+        overlay: bool,
+    ) -> Session {
+        let frame = Frame::new(width, height);
+        Session {
+            settings,
+            flyer: Flyer::from_camera(camera),
+            pixels: vec![0; frame.pixel_count()],
+            frame,
+            exposure_scale: exposure.exp2(),
+            overlay,
+            help: false,
+            accumulated: 0,
+            last_camera: None,
+            status: None,
+            timings: Vec::new(),
+            smoothed: FrameTiming::default(),
+            non_finite: 0,
+        }
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.frame.width, self.frame.height)
+    }
+
+    /// Carries out a command. Returns `false` for `Quit`. A screenshot
+    /// request is left to the caller, who knows what was shown.
+    pub fn apply(&mut self, action: Action) -> bool {
+        match action {
+            Action::Mode(m) if m.available() && m != self.settings.mode => {
+                self.settings.mode = m;
+                self.reset();
+            }
+            Action::Mode(_) => {}
+            Action::ToggleDenoise => {
+                self.settings.denoise = !self.settings.denoise;
+                // The history was not kept up while off: start it afresh.
+                self.reset();
+            }
+            Action::FewerSamples => self.settings.spp = (self.settings.spp / 2).max(1),
+            Action::MoreSamples => self.settings.spp = (self.settings.spp * 2).min(MAX_SPP),
+            Action::Faster => self.flyer.speed = (self.flyer.speed * SPEED_STEP).min(1e4),
+            Action::Slower => self.flyer.speed = (self.flyer.speed / SPEED_STEP).max(1e-3),
+            Action::Reset => self.reset(),
+            Action::Help => self.help = !self.help,
+            Action::Overlay => self.overlay = !self.overlay,
+            Action::Screenshot => {}
+            Action::Quit => return false,
+        }
+        true
+    }
+
+    /// Restarts temporal history and `reference` accumulation.
+    fn reset(&mut self) {
+        self.frame.reset_history();
+        self.accumulated = 0;
+    }
+
+    /// Moves and turns the camera by this frame's held keys and drag.
+    pub fn steer(&mut self, input: &FrameInput, dt: f32) {
+        let (right, up, forward) = input.travel();
+        self.flyer.travel(right, up, forward, dt);
+        let (yaw, pitch) = input.turn();
+        self.flyer.look(
+            yaw * dt * ARROW_RADIANS + input.drag.0 * DRAG_RADIANS,
+            pitch * dt * ARROW_RADIANS - input.drag.1 * DRAG_RADIANS,
+        );
+    }
+
+    /// Re-allocates the frame state for a new size (history starts afresh).
+    /// A size the renderer refuses (e.g. a minimised window) is ignored.
+    pub fn resize(&mut self, width: u32, height: u32) -> bool {
+        if (width, height) == self.size() || crate::scene::check_resolution(width, height).is_err()
+        {
+            return false;
+        }
+        self.frame = Frame::new(width, height);
+        self.pixels = vec![0; self.frame.pixel_count()];
+        self.accumulated = 0;
+        self.last_camera = None;
+        true
+    }
+
+    /// Renders one frame of the current camera. Must run inside the rayon
+    /// pool that should do the work.
+    pub fn render(&mut self, world: &World) -> PhaseTimes {
+        let camera = self.flyer.camera();
+        if self.settings.mode == Mode::Reference {
+            // The same rule as the frame's: a moved camera restarts the sum.
+            if self.last_camera.is_some_and(|c| c != camera) {
+                self.accumulated = 0;
+            }
+            self.accumulated += self.settings.spp;
+        }
+        self.last_camera = Some(camera);
+        self.frame.render(world, &camera, &self.settings)
+    }
+
+    /// Tonemaps the frame into the window pixels and draws the overlay.
+    /// Must run inside the rayon pool.
+    pub fn compose(&mut self) {
+        let bad = present::to_display(&self.frame.color, self.exposure_scale, &mut self.pixels);
+        if bad > 0 && self.non_finite == 0 {
+            eprintln!("penumbra: the renderer produced non-finite pixels; they are shown black");
+        }
+        self.non_finite += bad as u64;
+        if self.overlay {
+            let lines = self.readout().lines();
+            let (w, h) = self.size();
+            overlay::draw(&mut self.pixels, w as usize, h as usize, &lines);
+        }
+    }
+
+    /// Records a shown frame's figures.
+    pub fn record(&mut self, times: &PhaseTimes, present: f64, total: f64) {
+        let primary = self.frame.pixel_count() as u64
+            * match self.settings.mode {
+                Mode::Reference => self.settings.spp as u64,
+                _ => 1,
+            };
+        let t = FrameTiming {
+            render: times.wall - times.denoise,
+            denoise: times.denoise,
+            present,
+            total,
+            rays: primary + times.shadow_rays,
+        };
+        self.timings.push(t);
+        // An exponential average keeps the numbers readable while moving.
+        let s = &mut self.smoothed;
+        if self.timings.len() == 1 {
+            *s = t;
+        } else {
+            let a = 0.2;
+            s.render += a * (t.render - s.render);
+            s.denoise += a * (t.denoise - s.denoise);
+            s.present += a * (t.present - s.present);
+            s.total += a * (t.total - s.total);
+            s.rays = t.rays;
+        }
+    }
+
+    pub fn set_status(&mut self, message: String) {
+        self.status = Some((message, Instant::now()));
+    }
+
+    pub fn readout(&self) -> Readout {
+        let mode = self.settings.mode;
+        let uses_denoiser = matches!(mode, Mode::Ratio | Mode::Stochastic | Mode::SoftShadow);
+        let (width, height) = self.size();
+        Readout {
+            mode,
+            denoise: uses_denoiser.then_some(self.settings.denoise),
+            spp: self.settings.spp,
+            accumulated: (mode == Mode::Reference).then_some(self.accumulated),
+            width,
+            height,
+            timing: self.smoothed,
+            speed: self.flyer.speed,
+            status: self
+                .status
+                .as_ref()
+                .filter(|(_, at)| at.elapsed() < STATUS_FOR)
+                .map(|(s, _)| s.clone()),
+            help: self.help,
+        }
+    }
+
+    /// One line for stderr: medians over the shown frames after the first
+    /// (which pays for warm-up).
+    pub fn summary(&self) -> String {
+        let frames = if self.timings.len() > 1 {
+            &self.timings[1..]
+        } else {
+            &self.timings[..]
+        };
+        let median = |f: &dyn Fn(&FrameTiming) -> f64| {
+            let mut v: Vec<f64> = frames.iter().map(f).collect();
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(0.0)
+        };
+        let total = median(&|t| t.total);
+        let (w, h) = self.size();
+        format!(
+            "penumbra view: {} frames at {w}x{h}, {} mode, last spp {}; median of {} frames: \
+             frame {:.1} ms ({:.2} fps), render {:.1} ms, denoise {:.1} ms, present {:.1} ms, \
+             {:.2} Mrays/s; non-finite pixels shown black: {}",
+            self.timings.len(),
+            self.settings.mode,
+            self.settings.spp,
+            frames.len(),
+            total * 1e3,
+            if total > 0.0 { 1.0 / total } else { 0.0 },
+            median(&|t| t.render) * 1e3,
+            median(&|t| t.denoise) * 1e3,
+            median(&|t| t.present) * 1e3,
+            median(&|t| t.mrays_per_s()),
+            self.non_finite
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn session() -> Session {
+        let camera = Camera {
+            eye: Vec3::new(0.0, 1.0, -5.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+        };
+        Session::new(RenderSettings::default(), &camera, 32, 18, 0.0, true)
+    }
+
+    #[test]
+    fn brackets_halve_and_double_samples_within_bounds() {
+        let mut s = session();
+        s.apply(Action::FewerSamples);
+        assert_eq!(s.settings.spp, 1);
+        for _ in 0..20 {
+            s.apply(Action::MoreSamples);
+        }
+        assert_eq!(s.settings.spp, MAX_SPP);
+    }
+
+    #[test]
+    fn speed_steps_up_and_down_by_the_same_factor() {
+        let mut s = session();
+        let v = s.flyer.speed;
+        s.apply(Action::Faster);
+        assert!((s.flyer.speed / v - SPEED_STEP).abs() < 1e-6);
+        s.apply(Action::Slower);
+        assert!((s.flyer.speed / v - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn toggles_flip_denoiser_help_and_overlay_and_quit_stops() {
+        let mut s = session();
+        assert!(s.settings.denoise && s.overlay && !s.help);
+        s.apply(Action::ToggleDenoise);
+        s.apply(Action::Help);
+        s.apply(Action::Overlay);
+        assert!(!s.settings.denoise && !s.overlay && s.help);
+        assert!(s.apply(Action::Mode(Mode::SoftShadow)));
+        assert_eq!(s.settings.mode, Mode::SoftShadow);
+        assert!(!s.apply(Action::Quit));
+    }
+
+    #[test]
+    fn resizing_reallocates_frame_and_window_pixels() {
+        let mut s = session();
+        assert!(s.resize(64, 36));
+        assert_eq!(s.size(), (64, 36));
+        assert_eq!(s.frame.color.len(), 64 * 36);
+        assert_eq!(s.pixels.len(), 64 * 36);
+        assert!(
+            !s.resize(0, 36),
+            "a zero-sized (minimised) window is ignored"
+        );
+        assert_eq!(s.size(), (64, 36));
+    }
+
+    #[test]
+    fn dragging_right_turns_the_view_right() {
+        let mut s = session();
+        let before = s.flyer.forward();
+        let input = FrameInput {
+            drag: (40.0, 0.0),
+            ..FrameInput::default()
+        };
+        s.steer(&input, 1.0 / 30.0);
+        let after = s.flyer.forward();
+        let right = before.cross(Vec3::Y);
+        assert!(after.dot(right) > 0.1, "{before} -> {after}");
+    }
+}
