@@ -178,7 +178,8 @@ fn take_screenshots(session: &mut Session, requests: Vec<Option<PathBuf>>) -> Re
         match screenshot(session, &path) {
             Ok(msg) => {
                 eprintln!("penumbra: {msg}");
-                session.set_status(msg.to_uppercase());
+                let name = path.file_name().unwrap_or_default().to_string_lossy();
+                session.set_status(format!("SAVED {} +EXR", name.to_uppercase()));
             }
             Err(e) if interactive => {
                 eprintln!("penumbra: {e:#}");
