@@ -92,8 +92,8 @@ impl Readout {
                 t.present * 1e3
             ),
             format!(
-                "{:.1} FPS  {:.1} MRAYS/S  SPEED {:.2}  H HELP",
-                self.fps(),
+                "{} FPS  {:.1} MRAYS/S  SPEED {:.2}  H HELP",
+                fps_digits(self.fps()),
                 t.mrays_per_s(),
                 self.speed
             ),
@@ -111,15 +111,25 @@ impl Readout {
     /// The title bar: the essentials of the first three lines.
     pub fn title(&self) -> String {
         format!(
-            "penumbra - {} - {} - {} - {}x{} - {:.1} ms render - {:.1} fps",
+            "penumbra - {} - {} - {} - {}x{} - {:.1} ms render - {} fps",
             self.mode,
             self.denoise_word().to_lowercase(),
             self.spp_words().to_lowercase(),
             self.width,
             self.height,
             self.timing.render * 1e3,
-            self.fps()
+            fps_digits(self.fps())
         )
+    }
+}
+
+/// Frames per second, with two decimals below 10 so that a slow frame rate
+/// still reads as a number.
+fn fps_digits(fps: f64) -> String {
+    if fps < 10.0 {
+        format!("{fps:.2}")
+    } else {
+        format!("{fps:.1}")
     }
 }
 
