@@ -128,7 +128,12 @@ fn a_scripted_flight_through_room_shows_every_mode_and_the_motion() {
     let size = ["--width", "320", "--height", "180"];
     let mut args = vec![room, "--script", script.to_str().unwrap()];
     args.extend(size);
-    view(&args);
+    let out = view(&args);
+    let summary = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        summary.contains("non-finite pixels shown black: 0"),
+        "{summary}"
+    );
 
     let modes = [
         "ratio",

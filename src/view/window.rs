@@ -11,6 +11,7 @@ use crate::render::{Mode, RenderSettings, World};
 use crate::scene::Scene;
 use anyhow::{Context, Result, bail};
 use minifb::{Key, KeyRepeat, MouseButton, MouseMode, ScaleMode, Window, WindowOptions};
+use rayon::ThreadPool;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -59,15 +60,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
             "no display to open a window on (DISPLAY is not set)",
         ));
     }
-    let options = WindowOptions {
-        resize: true,
-        scale_mode: ScaleMode::Stretch,
-        ..WindowOptions::default()
-    };
-    let mut window = Window::new("penumbra", w as usize, h as usize, options)
-        .map_err(|e| no_window(&format!("cannot open a window ({e})")))?;
-    // No rate limit: rendering paces the loop, and presenting never sleeps.
-    window.set_target_fps(0);
+    let mut window = open_window(w, h)?;
 
     let device = Device::new().context("starting Embree")?;
     let camera = scene.camera;
@@ -85,8 +78,57 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         ..RenderSettings::default()
     };
     let mut session = Session::new(settings, &camera, w, h, opts.exposure, opts.overlay);
-    let scripted = script.is_some();
-    let mut player = script.map(Player::new);
+    let player = script.map(Player::new);
+    fly(
+        &mut window,
+        &mut session,
+        &world,
+        &pool,
+        player,
+        opts.frames,
+    )?;
+    if let Some(path) = &opts.screenshot {
+        for p in present::save_screenshot(
+            path,
+            session.frame.width,
+            session.frame.height,
+            &session.pixels,
+            &session.frame.color,
+        )? {
+            println!("{}", p.display());
+        }
+    }
+    eprintln!("{}", session.summary());
+    Ok(())
+}
+
+/// Opens the window; frames are presented at their own size, so a resized
+/// window shows the old frame stretched until the next one is rendered.
+fn open_window(w: u32, h: u32) -> Result<Window> {
+    let options = WindowOptions {
+        resize: true,
+        scale_mode: ScaleMode::Stretch,
+        ..WindowOptions::default()
+    };
+    let mut window = Window::new("penumbra", w as usize, h as usize, options)
+        .map_err(|e| no_window(&format!("cannot open a window ({e})")))?;
+    // No rate limit: rendering paces the loop, and presenting never sleeps.
+    window.set_target_fps(0);
+    Ok(window)
+}
+
+/// The frame loop: input (window and script), screenshots of what is on
+/// screen, steering, resizing, render, present. Ends on Esc, a closed
+/// window, a scripted `quit` or after `frames` frames.
+fn fly(
+    window: &mut Window,
+    session: &mut Session,
+    world: &World,
+    pool: &ThreadPool,
+    mut player: Option<Player>,
+    frames: Option<u32>,
+) -> Result<()> {
+    let scripted = player.is_some();
     let mut mouse = MouseDrag::default();
     let mut window_size = window.get_size();
     let mut shown = 0u32;
@@ -101,7 +143,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         };
         last = start;
 
-        let mut input = mouse.gather(&window);
+        let mut input = mouse.gather(window);
         if let Some(p) = player.as_mut() {
             p.feed(shown, &mut input);
         }
@@ -116,9 +158,9 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         // Screenshots show what is on screen now, before the next frame.
         shoot.extend(input.screenshots.drain(..).map(Some));
         if shown > 0 {
-            take_screenshots(&mut session, shoot)?;
+            take_screenshots(session, shoot)?;
         }
-        if quit || opts.frames.is_some_and(|n| shown >= n) {
+        if quit || frames.is_some_and(|n| shown >= n) {
             break;
         }
         session.steer(&input, dt);
@@ -131,7 +173,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         }
         window_size = now_size;
 
-        let times = pool.install(|| session.render(&world));
+        let times = pool.install(|| session.render(world));
         let t = Instant::now();
         pool.install(|| session.compose());
         let (fw, fh) = session.size();
@@ -143,18 +185,6 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         session.record(&times, present, start.elapsed().as_secs_f64());
         shown += 1;
     }
-    if let Some(path) = &opts.screenshot {
-        for p in present::save_screenshot(
-            path,
-            session.frame.width,
-            session.frame.height,
-            &session.pixels,
-            &session.frame.color,
-        )? {
-            println!("{}", p.display());
-        }
-    }
-    eprintln!("{}", session.summary());
     Ok(())
 }
 
