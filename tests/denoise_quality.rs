@@ -2,8 +2,9 @@
 //! accuracy after 16 static frames, shading detail on the mapped floor,
 //! contact shadows, and temporal stability on an orbiting camera.
 //!
-//! References are rendered in-test (256 spp, jittered box filter) and shared
-//! between the tests of this file; the resolutions are small (160x90 and
+//! References (256 spp: `reference` itself, and where the denoiser alone
+//! is judged, the undenoised estimator at 256 spp) are rendered in-test and
+//! shared between the tests of this file; the resolutions are small (160x90 and
 //! 320x180) so the whole file stays a small part of `make test`.
 mod common;
 
@@ -28,7 +29,7 @@ fn render_sequence(
     mode: Mode,
     denoise: bool,
     cameras: &[Camera],
-    mut each: impl FnMut(usize, &Frame),
+    mut each: impl FnMut(usize, &mut Frame),
 ) -> Frame {
     let device = Device::new().expect("Embree starts");
     let world = World::build(&device, scene.clone()).expect("scene builds");
@@ -43,7 +44,7 @@ fn render_sequence(
     let mut frame = Frame::new(w, h);
     for (k, cam) in cameras.iter().enumerate() {
         pool.install(|| frame.render(&world, cam, &settings));
-        each(k, &frame);
+        each(k, &mut frame);
     }
     frame
 }
@@ -474,7 +475,9 @@ fn after_a_disocclusion_the_error_recovers_without_a_ghost_trail() {
     let (w, h) = (size.0 as usize, size.1 as usize);
     let turn = 8.0;
     let (a, b) = (scene.camera, scene.camera.orbit(turn));
-    let reference = reference("room.toml", size, turn);
+    // Against the ratio's own converged value at B: on room the LTC bias of
+    // U would otherwise hide the noise and any ghost behind a constant floor.
+    let reference = converged("room.toml", size, turn, Mode::Ratio);
     // 8 frames at A build a history, then the camera turns to B.
     let before = static_frames(&scene, size, Mode::Unshadowed, false, 1);
     let cam_a = a.frame(size.0, size.1);
@@ -516,16 +519,16 @@ fn after_a_disocclusion_the_error_recovers_without_a_ghost_trail() {
         }
         errors_hist.push(rel_mse_masked(&f.color, &reference, &region));
     });
-    render_sequence(
-        &scene,
-        size,
-        Mode::Ratio,
-        true,
-        &vec![b; frames_after],
-        |_, f| {
+    // The fresh start draws the very same samples (same frame numbers) but
+    // forgets its history at the turn: any excess error of the run with
+    // history is what the history brought (a ghost), not sampling luck.
+    render_sequence(&scene, size, Mode::Ratio, true, &cams, |t, f| {
+        if t == 7 {
+            f.reset_history();
+        } else if t >= 8 {
             errors_fresh.push(rel_mse_masked(&f.color, &reference, &region));
-        },
-    );
+        }
+    });
     let n = region.iter().filter(|&&r| r).count();
     println!("room 160x90, turn {turn} deg after 8 frames: {n} disoccluded pixels");
     for k in 0..frames_after {
@@ -537,12 +540,14 @@ fn after_a_disocclusion_the_error_recovers_without_a_ghost_trail() {
         );
     }
     assert!(n >= 100, "only {n} disoccluded pixels");
-    // No ghost: the disoccluded pixels are never worse than a fresh start
-    // (which has no history to leak), and within 4 frames they reach the
-    // error a fresh start has after 8.
+    // No ghost: with the same samples, the disoccluded pixels are within
+    // 1.5x of a fresh start (which has no history to leak) on every frame
+    // (a leaked history of the occluder would carry its ratio, not this
+    // surface's), and
+    // after 4 frames within 2x of the error a fresh start has after 8.
     for k in 0..frames_after {
         assert!(
-            errors_hist[k] <= 1.25 * errors_fresh[k] + 1e-5,
+            errors_hist[k] <= 1.5 * errors_fresh[k],
             "frame {}: {} vs fresh {}",
             k + 1,
             errors_hist[k],
@@ -550,8 +555,8 @@ fn after_a_disocclusion_the_error_recovers_without_a_ghost_trail() {
         );
     }
     assert!(
-        errors_hist[3] <= 1.5 * errors_fresh[frames_after - 1],
-        "after 4 frames {} vs converged {}",
+        errors_hist[3] <= 2.0 * errors_fresh[frames_after - 1],
+        "after 4 frames {} vs fresh start after 8 {}",
         errors_hist[3],
         errors_fresh[frames_after - 1]
     );
