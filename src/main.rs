@@ -194,6 +194,14 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     if !a.orbit.is_finite() {
         bail!("--orbit must be a finite number of degrees");
     }
+    // Checked before rendering, not after the first (or last) frame.
+    if let Some(dir) = a
+        .out
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty() && !d.is_dir())
+    {
+        bail!("{}: the directory of --out does not exist", dir.display());
+    }
     let per_frame = FramePattern::new(&a.out, a.frames);
     let scene = load_scene(c.scene.as_deref())?;
     let (w, h) = frame_size(&scene, c.width, c.height)?;

@@ -149,3 +149,23 @@ fn a_non_finite_orbit_is_refused() {
     assert!(err.contains("--orbit"), "stderr: {err}");
     assert!(!err.contains("panicked"), "stderr: {err}");
 }
+
+#[test]
+fn a_missing_output_directory_is_refused_before_rendering() {
+    let dir = temp_dir("nodir");
+    let out = dir.join("missing").join("f{frame}.png");
+    let run = penumbra()
+        .args([
+            "render", "--width", "16", "--height", "9", "--frames", "2", "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        err.contains("missing") && err.contains("does not exist"),
+        "stderr: {err}"
+    );
+    assert!(!err.contains("panicked"), "stderr: {err}");
+}
