@@ -72,12 +72,18 @@ enum Switch {
 struct RenderArgs {
     #[command(flatten)]
     common: SceneArgs,
-    /// Output file, .png or .exr.
+    /// Output file, .png or .exr. A `{frame}` in it writes every frame, the
+    /// frame number (from 0) zero-padded to 4 digits, or more when the last
+    /// number needs more: `--out out/f{frame}.png` gives out/f0000.png, ...
     #[arg(long)]
     out: PathBuf,
-    /// Frames to render (the last is written).
+    /// Frames to render (without `{frame}` in --out, the last is written).
     #[arg(long, default_value_t = 1)]
     frames: u32,
+    /// Turn the eye about the camera target by this many degrees per frame
+    /// (about the camera's up axis; frame k is turned by k * DEG).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    orbit: f32,
     /// Extra EXR images beside --out: albedo, normal, depth, u, un, sn, ratio.
     #[arg(long, default_value = "")]
     aov: String,
@@ -192,6 +198,18 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     if a.frames == 0 {
         bail!("--frames must be at least 1");
     }
+    if !a.orbit.is_finite() {
+        bail!("--orbit must be a finite number of degrees");
+    }
+    // Checked before rendering, not after the first (or last) frame.
+    if let Some(dir) = a
+        .out
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty() && !d.is_dir())
+    {
+        bail!("{}: the directory of --out does not exist", dir.display());
+    }
+    let per_frame = FramePattern::new(&a.out, a.frames);
     let scene = load_scene(c.scene.as_deref())?;
     let (w, h) = frame_size(&scene, c.width, c.height)?;
     let device = Device::new().context("starting Embree")?;
@@ -207,12 +225,20 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     };
     let mut frame = Frame::new(w, h);
     let mut last = None;
-    pool.install(|| {
-        for _ in 0..a.frames {
-            last = Some(frame.render(&world, &camera, &settings));
+    let mut written = Vec::new();
+    pool.install(|| -> Result<()> {
+        for k in 0..a.frames {
+            let cam = camera.orbit(a.orbit * k as f32);
+            last = Some(frame.render(&world, &cam, &settings));
+            if let Some(p) = &per_frame {
+                written.extend(output::write_frame(&p.path(k), &frame, c.exposure, &aovs)?);
+            }
         }
-    });
-    let written = output::write_frame(&a.out, &frame, c.exposure, &aovs)?;
+        Ok(())
+    })?;
+    if per_frame.is_none() {
+        written = output::write_frame(&a.out, &frame, c.exposure, &aovs)?;
+    }
     if let Some(t) = last {
         eprintln!(
             "{}x{} {} spp={} frames={}: last frame {:.1} ms",
@@ -228,6 +254,36 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         println!("{}", p.display());
     }
     Ok(())
+}
+
+/// An `--out` path holding `{frame}`: every frame gets its own file.
+struct FramePattern {
+    text: String,
+    digits: usize,
+}
+
+impl FramePattern {
+    const TOKEN: &'static str = "{frame}";
+
+    /// `None` when `out` has no `{frame}` (only the last frame is written).
+    fn new(out: &Path, frames: u32) -> Option<FramePattern> {
+        let text = out.to_str()?;
+        if !text.contains(Self::TOKEN) {
+            return None;
+        }
+        // Padded so that the files sort in frame order: 4 digits, more when
+        // the last frame number is longer.
+        let digits = (frames.saturating_sub(1)).to_string().len().max(4);
+        Some(FramePattern {
+            text: text.to_string(),
+            digits,
+        })
+    }
+
+    fn path(&self, frame: u32) -> PathBuf {
+        let number = format!("{frame:0width$}", width = self.digits);
+        PathBuf::from(self.text.replace(Self::TOKEN, &number))
+    }
 }
 
 fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {

@@ -211,7 +211,15 @@ impl Ctx<'_> {
         let i = y * w + x;
         let p = inp.guides[i];
         let step = 1usize << level;
-        let rp = src.ratio[i];
+        // The ratio the taps are compared with. At level 0 the centre is one
+        // noisy sample: compared with itself, an outlier (one lit sample in
+        // a shadow) stops every tap and survives as a speckle. Its 3x3 mean
+        // is robust to that; later levels read filtered values already.
+        let rp = if level == 0 {
+            self.mean_ratio(x, y, src)
+        } else {
+            src.ratio[i]
+        };
         // The ratio's noise shrinks about twofold per level already run.
         let sig = (inp.sigma[i] * self.sigma_ratio / step as f32).max(1e-4);
         let inv_sig = 1.0 / sig;
@@ -258,6 +266,29 @@ impl Ctx<'_> {
         }
         let inv = 1.0 / wsum;
         (su * inv, ss * inv)
+    }
+}
+
+impl Ctx<'_> {
+    /// Mean ratio over the surface pixels of the 3x3 block around (x, y).
+    #[inline]
+    fn mean_ratio(&self, x: usize, y: usize, src: Src) -> f32 {
+        let (w, h) = (self.inp.width, self.height);
+        let (mut sum, mut n) = (0.0f32, 0.0f32);
+        for ty in y.saturating_sub(1)..(y + 2).min(h) {
+            for tx in x.saturating_sub(1)..(x + 2).min(w) {
+                let j = ty * w + tx;
+                if self.inp.guides[j].lu >= 0.0 {
+                    sum += src.ratio[j];
+                    n += 1.0;
+                }
+            }
+        }
+        if n > 0.0 {
+            sum / n
+        } else {
+            src.ratio[y * w + x]
+        }
     }
 }
 

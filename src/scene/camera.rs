@@ -25,6 +25,20 @@ pub struct CameraFrame {
 }
 
 impl Camera {
+    /// The camera with its eye turned about the target by `degrees` around
+    /// the `up` axis through the target (right-hand rule: positive turns
+    /// counter-clockwise seen from above). Target, up and field of view are
+    /// kept, and so is the eye's distance to the target, so an orbit keeps
+    /// the subject framed; `render --orbit` uses it once per frame.
+    pub fn orbit(&self, degrees: f32) -> Camera {
+        let axis = self.up.normalize();
+        let turn = glam::Quat::from_axis_angle(axis, degrees.to_radians());
+        Camera {
+            eye: self.target + turn * (self.eye - self.target),
+            ..*self
+        }
+    }
+
     pub fn frame(&self, width: u32, height: u32) -> CameraFrame {
         let forward = (self.target - self.eye).normalize();
         let right = forward.cross(self.up).normalize();
