@@ -45,6 +45,10 @@ pub enum EmbreeError {
         /// Its value.
         position: [f32; 3],
     },
+    /// A device configuration string with a NUL byte inside, which the C API
+    /// cannot be given.
+    #[error("the Embree configuration string contains a NUL byte")]
+    InvalidConfig,
     /// The Embree build lacks a feature the requested configuration needs.
     #[error("this Embree build does not support {0}")]
     Unsupported(&'static str),

@@ -248,3 +248,29 @@ impl Scene<'_> {
         read_occluded!(ray, rays, u8)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::align_of;
+
+    #[test]
+    fn embree_packet_layouts_carry_the_alignment_embree_requires() {
+        // Embree: 8-wide packets 32-byte aligned, 16-wide 64-byte aligned,
+        // valid masks aligned like their packet.
+        assert!(align_of::<sys::RTCRay8>() >= 32);
+        assert!(align_of::<sys::RTCRayHit8>() >= 32);
+        assert!(align_of::<Valid8>() >= 32);
+        assert!(align_of::<sys::RTCRay16>() >= 64);
+        assert!(align_of::<sys::RTCRayHit16>() >= 64);
+        assert!(align_of::<Valid16>() >= 64);
+    }
+
+    #[test]
+    fn public_packets_have_no_alignment_demand_of_their_own() {
+        // Plain f32 arrays: any place Rust can put one is fine, because the
+        // query copies it into the aligned Embree layout.
+        assert_eq!(align_of::<Rays16>(), align_of::<f32>());
+        assert_eq!(align_of::<Rays8>(), align_of::<f32>());
+    }
+}

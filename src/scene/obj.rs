@@ -6,7 +6,8 @@
 //! are ignored: the scene file assigns the material.
 
 use super::Mesh;
-use glam::{Vec2, Vec3};
+use super::fields::MAX_MAGNITUDE;
+use glam::{DVec3, Vec2, Vec3};
 use std::path::Path;
 
 /// Why an OBJ was refused: the message and, where it applies, the OBJ line.
@@ -46,6 +47,14 @@ fn floats(words: &[&str], n: usize, what: &str, line: usize) -> Result<Vec<f32>,
             Err(_) => Err(at(line, format!("{what} has a non-number `{w}`"))),
         })
         .collect()
+}
+
+/// The unit vector along (x, y, z), computed in f64 so that any finite,
+/// non-zero f32 normal normalises; zero when the normal is zero.
+fn unit_normal(x: f32, y: f32, z: f32) -> Vec3 {
+    DVec3::new(x as f64, y as f64, z as f64)
+        .normalize_or_zero()
+        .as_vec3()
 }
 
 /// Resolves one OBJ index (1-based, or negative = relative to the elements
@@ -100,6 +109,15 @@ fn validate(text: &str) -> Result<(), ObjError> {
         match kw {
             "v" => {
                 let p = floats(args, 3, "vertex position", line)?;
+                // The same bound as every coordinate in the scene file: past
+                // it, f32 positions lose the precision shadow-ray offsets need
+                // and a transform can overflow to infinity.
+                if let Some(c) = p.iter().find(|c| c.abs() as f64 > MAX_MAGNITUDE) {
+                    return Err(at(
+                        line,
+                        format!("vertex coordinate {c:e} exceeds the scene limit of 1e8"),
+                    ));
+                }
                 match args.len() {
                     3 | 6 => {}
                     4 => {
@@ -126,7 +144,9 @@ fn validate(text: &str) -> Result<(), ObjError> {
             }
             "vn" => {
                 let n = floats(args, 3, "normal", line)?;
-                if Vec3::new(n[0], n[1], n[2]).length_squared() == 0.0 {
+                // In f64: f32 squares of finite normals can underflow to 0 or
+                // overflow to infinity.
+                if unit_normal(n[0], n[1], n[2]) == Vec3::ZERO {
                     return Err(at(line, "normal has zero length"));
                 }
                 svn += 1;
@@ -206,7 +226,7 @@ pub fn load(path: &Path, material: u32) -> Result<Mesh, ObjError> {
             Some(ns) if m.normals.len() == nverts * 3 => ns.extend(
                 m.normals
                     .chunks_exact(3)
-                    .map(|n| Vec3::new(n[0], n[1], n[2]).normalize_or_zero()),
+                    .map(|n| unit_normal(n[0], n[1], n[2])),
             ),
             _ => mesh.normals = None,
         }

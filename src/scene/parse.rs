@@ -6,7 +6,9 @@
 //! numbers. Range and geometry rules are checked here, next to the key they
 //! belong to.
 
-use super::fields::{Ctx, Field, Result, Section, entries_in_order, fmt_num, fmt_vec3};
+use super::fields::{
+    Ctx, Field, MAX_MAGNITUDE, Result, Section, entries_in_order, fmt_num, fmt_vec3,
+};
 use super::texture::{Encoding, Texture};
 use super::{Camera, DEFAULT_HEIGHT, DEFAULT_WIDTH, Light, Material, Mesh, Scene, SceneError};
 use super::{lights, obj, shapes};
@@ -409,6 +411,22 @@ fn parse_mesh(sec: &Section, material: u32, rotate_y: f32) -> Result<Mesh> {
         translate,
     }
     .apply(&mut mesh);
+    // Scale times the OBJ's coordinates can leave the range every scene
+    // coordinate must stay in (or overflow f32 altogether).
+    if let Some(p) = mesh
+        .positions
+        .iter()
+        .find(|p| !(p.is_finite() && p.abs().max_element() as f64 <= MAX_MAGNITUDE))
+    {
+        return Err(sec.err(
+            path_line,
+            format!(
+                "path = \"{rel}\": {}: after scale, rotate_y and translate a vertex lies at {}, beyond the scene limit of 1e8",
+                path.display(),
+                fmt_vec3(*p)
+            ),
+        ));
+    }
     Ok(mesh)
 }
 

@@ -57,16 +57,25 @@ impl Texture {
                 path.display()
             ));
         }
-        let img = reader
-            .decode()
+        let decoder = reader
+            .into_decoder()
             .map_err(|e| format!("cannot decode {}: {e}", path.display()))?;
-        let (width, height) = (img.width(), img.height());
+        // The size from the header is checked before any pixel is decoded, so
+        // a hostile header is refused by name instead of as a failed allocation.
+        let (width, height) = image::ImageDecoder::dimensions(&decoder);
         if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
             return Err(format!(
                 "{} is {width}x{height}; each side must be in 1..={MAX_SIDE}",
                 path.display()
             ));
         }
+        let img = image::DynamicImage::from_decoder(decoder).map_err(|e| match e {
+            image::ImageError::Limits(_) => format!(
+                "{} ({width}x{height}) is too large to decode within the image reader's memory limit",
+                path.display()
+            ),
+            e => format!("cannot decode {}: {e}", path.display()),
+        })?;
         let is_float = matches!(
             img.color(),
             image::ColorType::Rgb32F | image::ColorType::Rgba32F
