@@ -43,6 +43,21 @@ fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
+/// `i` modulo `n` (repeat addressing). Bilinear taps are at most one texel
+/// outside the image, so the common case is a compare, not a 64-bit division.
+#[inline]
+fn wrap(i: i64, n: i64) -> i64 {
+    if (0..n).contains(&i) {
+        i
+    } else if i == -1 {
+        n - 1
+    } else if i == n {
+        0
+    } else {
+        i.rem_euclid(n)
+    }
+}
+
 impl Texture {
     /// Loads an image; the error is a sentence without the path (the caller
     /// adds it).
@@ -100,7 +115,7 @@ impl Texture {
 
     fn texel(&self, x: i64, y: i64) -> [f32; 4] {
         let (w, h) = (self.width as i64, self.height as i64);
-        let idx = (y.rem_euclid(h) * w + x.rem_euclid(w)) as usize;
+        let idx = (wrap(y, h) * w + wrap(x, w)) as usize;
         self.texels.get(idx).copied().unwrap_or([0.0; 4])
     }
 
