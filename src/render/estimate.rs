@@ -149,8 +149,11 @@ pub fn draw_samples(
     // isotropic, so it does not care which frame), instead of two per sample.
     let frame = Frame::from_normal_view(n, wo);
     let wo_l = frame.to_local(wo);
-    // The light sampler of the last light chosen: its setup is per (light, point).
-    let mut cached: Option<(usize, Option<LightSampler>)> = None;
+    // The light sampler of the last light chosen: its setup is per (light,
+    // point). Kept in place and borrowed: the sampler is large enough that
+    // moving it around per sample was a measurable share of this function.
+    let mut cached_light = usize::MAX;
+    let mut cached: Option<LightSampler> = None;
     for s in 0..spp {
         let index = first_sample.wrapping_add(s);
         let (li, p_choose) = pick_light(per_light, sample_1d(pixel, index, DIM_LIGHT, seed));
@@ -169,10 +172,11 @@ pub fn draw_samples(
             batch.push(ShadowRay::new(shadow_origin(g), wi, dist, pixel_slot, w));
             continue;
         }
-        if cached.is_none_or(|(k, _)| k != li) {
-            cached = Some((li, LightSampler::new(&world.prepared[li], g.position)));
+        if cached_light != li {
+            cached_light = li;
+            cached = LightSampler::new(&world.prepared[li], g.position);
         }
-        let Some((_, Some(sampler))) = cached else {
+        let Some(sampler) = cached.as_ref() else {
             continue;
         };
         let p_light_strategy =

@@ -27,12 +27,6 @@ pub(crate) fn solid_angle_with_lengths([a, b, c]: [DVec3; 3], [la, lb, lc]: [f64
     if omega.is_finite() { omega } else { 0.0 }
 }
 
-/// Angle between two vectors, accurate near 0 and π (unlike acos of the dot).
-#[inline]
-fn angle_between(x: Vec3, y: Vec3) -> f32 {
-    x.cross(y).length().atan2(x.dot(y))
-}
-
 /// Unit component of `v` orthogonal to unit `axis`; any orthogonal unit
 /// vector when `v` is parallel to it (only reached by degenerate triangles).
 #[inline]
@@ -49,14 +43,30 @@ fn orthogonal_unit(v: Vec3, axis: Vec3) -> Vec3 {
 /// from `b` to the sub-triangle's new corner c', so strata in `u` stay strata
 /// on the sphere.
 pub fn sample(a: Vec3, b: Vec3, c: Vec3, omega: f32, u: Vec2) -> Vec3 {
-    // Interior angle at a: between the great circles a–b and a–c.
-    let alpha = angle_between(a.cross(b), a.cross(c));
-    let (sin_alpha, cos_alpha) = alpha.sin_cos();
+    // Interior angle α at a: between the great circles a–b and a–c, whose
+    // normals are x = a×b and y = a×c. Only its sine and cosine are needed:
+    // cos α = x·y / (|x||y|), and since x×y = (a·(b×c)) a for unit a,
+    // sin α = |a·(b×c)| / (|x||y|). No inverse trigonometry, and
+    // sin/cos(u.x·Ω − α) then follow from sin/cos(u.x·Ω) by the addition
+    // theorem: one sin_cos per sample instead of an atan2 and two sin_cos.
+    let (x, y) = (a.cross(b), a.cross(c));
+    let inv = (x.length_squared() * y.length_squared()).sqrt().recip();
+    let (sin_alpha, cos_alpha) = if inv.is_finite() {
+        (
+            (a.dot(b.cross(c)).abs() * inv).min(1.0),
+            (x.dot(y) * inv).clamp(-1.0, 1.0),
+        )
+    } else {
+        // A degenerate triangle (two corners on one line): α = 0.
+        (0.0, 1.0)
+    };
     let cos_c = a.dot(b); // cosine of the arc length a–b
 
     // Step 1: the corner c' on arc a–c such that triangle a-b-c' has area u.x·Ω.
     let area = u.x * omega;
-    let (s, t) = (area - alpha).sin_cos();
+    let (sin_area, cos_area) = area.sin_cos();
+    let s = sin_area * cos_alpha - cos_area * sin_alpha;
+    let t = cos_area * cos_alpha + sin_area * sin_alpha;
     let uu = t - cos_alpha;
     let vv = s + sin_alpha * cos_c;
     let den = (vv * s + uu * t) * sin_alpha;
