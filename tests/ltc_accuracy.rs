@@ -169,6 +169,14 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
         })
         .collect();
 
+    if std::env::var_os("LTC_DUMP").is_some() {
+        for c in &cases {
+            println!(
+                "DUMP r={} v={} share={:.4} metal={:.4} spec={:.4} {}",
+                c.roughness, c.view, c.share, c.metal_err, c.spec_err, c.place
+            );
+        }
+    }
     let worst_ref = cases.iter().map(|c| c.ref_err).fold(0.0, f64::max);
     let evals: usize = cases.iter().map(|c| c.evals).sum();
     println!(

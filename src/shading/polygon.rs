@@ -256,16 +256,23 @@ pub fn edge_sum_fixed(v: &[DVec3; MAX_VERTICES], n: usize) -> f64 {
     }
 }
 
-/// `[edge_sum(a), edge_sum(b)]` for two polygons of `n` vertices each.
+/// `[edge_sum(a), edge_sum(b), edge_sum(c)]` for three polygons of `n`
+/// vertices each (the light for Lambert and its two LTC images).
 #[inline(always)]
-pub fn edge_sum_pair(a: &[DVec3; MAX_VERTICES], b: &[DVec3; MAX_VERTICES], n: usize) -> [f64; 2] {
+pub fn edge_sum_triple(
+    a: &[DVec3; MAX_VERTICES],
+    b: &[DVec3; MAX_VERTICES],
+    c: &[DVec3; MAX_VERTICES],
+    n: usize,
+) -> [f64; 3] {
     match n {
-        0..=2 => [0.0; 2],
-        3 => edge_sums::<2, 3>([a, b]),
-        4 => edge_sums::<2, 4>([a, b]),
+        0..=2 => [0.0; 3],
+        3 => edge_sums::<3, 3>([a, b, c]),
+        4 => edge_sums::<3, 4>([a, b, c]),
         _ => [
             edge_sum(&Polygon { v: *a, n }),
             edge_sum(&Polygon { v: *b, n }),
+            edge_sum(&Polygon { v: *c, n }),
         ],
     }
 }
