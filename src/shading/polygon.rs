@@ -196,10 +196,11 @@ pub fn edge_sum(poly: &Polygon) -> f64 {
 /// `edge_sum` of `K` polygons of exactly `N` vertices each (`v[k][..N]`),
 /// computed together. The arithmetic is `edge_sum`'s (normalise each vertex
 /// once, then each edge reads its two unit vertices), arranged for speed:
-/// - U needs two polygons with the same vertex count (the light in the
-///   shading frame for Lambert, and in LTC space for GGX); doing them in
-///   lockstep lets the compiler pair them into 2-wide `f64` SIMD and
-///   overlaps their square roots and divisions, the latency of U;
+/// - U needs three polygons with the same vertex count (the light in the
+///   shading frame for Lambert and the cosine part of each lobe, and its
+///   images in the two LTC spaces); doing them in lockstep lets the
+///   compiler pack them into `f64` SIMD and overlaps their square roots and
+///   divisions, the latency of U;
 /// - the normalisations carry no branch;
 /// - `pi / sin` is needed only by edges spanning more than 90 degrees
 ///   (cos < 0, only on very wide polygons): one well-predicted test keeps
