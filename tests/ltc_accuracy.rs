@@ -1,6 +1,8 @@
 //! Accuracy of the analytic U against brute-force area quadrature of the
 //! same BRDF x light (tests/common). Prints the error distribution:
-//! `cargo test --release --test ltc_accuracy -- --nocapture`.
+//! `cargo test --release --test ltc_accuracy -- --nocapture`
+//! (with `PENUMBRA_LTC_DUMP=1`, also every case: roughness, view, the light's
+//! share of the lobe, the F0 = 1 error and the worst channel's error).
 
 #[path = "ltc_support/mod.rs"]
 mod common;
@@ -13,18 +15,24 @@ use rayon::prelude::*;
 
 const ROUGHNESS: [f32; 7] = [0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0];
 const VIEW_DEG: [f32; 8] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0, 89.0];
+/// The target: median relative error of the specular U for
+/// roughness >= 0.2 (lights holding >= 1% of the lobe).
+const TARGET_MEDIAN: f32 = 0.01;
 /// Measured with the committed table (roughness >= 0.2, lights holding >= 1%
-/// of the lobe), rounded up: relative error of the F0 = 1 specular (median,
-/// max); median over all three F0 channels (dominated by the Fresnel split at
-/// F0 = 0.04 and grazing views); error of lights holding < 1% of the lobe as
-/// a fraction of the whole lobe. The worst case over all channels (x15, a
-/// 0.04-F0 dielectric at 85 degrees lit by a light far from the mirror
-/// direction) is the Fresnel split's limit: one LTC shape serves both terms.
-const MEASURED_METAL_MEDIAN: f32 = 0.025;
-const MEASURED_METAL_MAX: f32 = 0.9;
-const MEASURED_FRESNEL_MEDIAN: f32 = 0.08;
-const MEASURED_FRESNEL_MAX: f32 = 15.0;
-const MEASURED_MINOR_OF_LOBE: f32 = 0.01;
+/// of the lobe), rounded up; regression guards, printed beside the target:
+/// relative error of the F0 = 1 specular (median, max); of the worst of the
+/// three F0 channels (median, max); error of lights holding < 1% of the lobe
+/// as a fraction of the whole lobe. The worst case (a 2x2 light overhead,
+/// roughness 0.2, view 89 degrees, holding 1.6% of the lobe: the grazing
+/// lobe's far tail, which no transformed cosine follows) is printed.
+const MEASURED_METAL_MEDIAN: f32 = 0.0125;
+const MEASURED_METAL_MAX: f32 = 0.45;
+const MEASURED_FRESNEL_MEDIAN: f32 = 0.015;
+const MEASURED_FRESNEL_MAX: f32 = 0.85;
+const MEASURED_MINOR_OF_LOBE: f32 = 0.004;
+/// The reference's own bound: its estimated relative error (sum of the
+/// adaptive quadrature's per-triangle error estimates) stays below this.
+const REFERENCE_BOUND: f64 = 1e-2;
 
 /// Specular F0 per channel: metal, half, dielectric (tests the Fresnel split).
 const F0: Vec3 = Vec3::new(1.0, 0.5, 0.04);
@@ -107,6 +115,8 @@ struct Case {
     place: &'static str,
     diffuse_err: f32,
     spec_err: f32,
+    /// Relative error of each channel (F0 = 1, 0.5, 0.04).
+    chan_err: [f32; 3],
     /// Relative error of the F0 = 1 channel alone (no Fresnel split).
     metal_err: f32,
     /// Specular U (F0 = 1) of this light over the whole lobe's.
@@ -160,6 +170,7 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
                 place,
                 diffuse_err: rel(d.x, rd.x),
                 spec_err,
+                chan_err: [0, 1, 2].map(|c| rel(s[c], rs[c])),
                 metal_err: rel(s.x, rs.x),
                 share,
                 spec_err_of_lobe: (s.x - rs.x).abs() / total,
@@ -169,6 +180,14 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
         })
         .collect();
 
+    if std::env::var_os("PENUMBRA_LTC_DUMP").is_some() {
+        for c in &cases {
+            println!(
+                "DUMP r={} v={} share={:.4} metal={:.4} spec={:.4} {}",
+                c.roughness, c.view, c.share, c.metal_err, c.spec_err, c.place
+            );
+        }
+    }
     let worst_ref = cases.iter().map(|c| c.ref_err).fold(0.0, f64::max);
     let evals: usize = cases.iter().map(|c| c.evals).sum();
     println!(
@@ -238,9 +257,21 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
         "GGX roughness >= 0.2, F0 = 1 only (LTC shape + magnitude, no Fresnel split): median {metal_med:.4}, p90 {metal_p90:.4}, max {metal_max:.4} (roughness {}, view {} deg, {})",
         wm.roughness, wm.view, wm.place
     );
-    if rough_stats.0 > 0.01 || metal_med > 0.01 {
+    let mut per_f0 = String::new();
+    for (c, f0) in [1.0, 0.5, 0.04].iter().enumerate() {
+        let mut e: Vec<f32> = rough.iter().map(|k| k.chan_err[c]).collect();
+        per_f0 += &format!(
+            " F0={f0}: median {:.4}, p90 {:.4}, max {:.4};",
+            quantile(&mut e, 0.5),
+            quantile(&mut e, 0.9),
+            quantile(&mut e, 1.0)
+        );
+    }
+    println!("GGX roughness >= 0.2 per channel:{per_f0}");
+    if rough_stats.0 > TARGET_MEDIAN || metal_med > TARGET_MEDIAN {
         println!(
-            "NOTE: the 1% median target for roughness >= 0.2 is NOT met (see the asserted measured bounds below)."
+            "NOTE: the 1% median target for roughness >= 0.2 is NOT met (F0 = 1 median {metal_med:.4}, worst-channel median {:.4}; see the asserted measured bounds).",
+            rough_stats.0
         );
     }
     let mut per_r = String::new();
@@ -278,6 +309,10 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
         worst_minor
     );
 
+    assert!(
+        worst_ref <= REFERENCE_BOUND,
+        "reference quadrature estimated error {worst_ref}"
+    );
     assert!(
         worst_d.diffuse_err <= 1e-4,
         "Lambert error {}",

@@ -3,24 +3,34 @@
 //! regenerate `data/ltc_64.bin`).
 //!
 //! Convention. In the shading frame (z = normal, x = the view's tangential
-//! direction, so the view is `(sin θv, 0, cos θv)`), the GGX lobe
-//! `f_spec(F=1) * cos` is approximated by `mag * D(w) / hmass` on the upper
-//! hemisphere, where `D` is a clamped cosine transformed by a matrix `M`.
-//! A cell stores `M^-1 = [[m00, 0, m02], [0, 1, 0], [m20, 0, m22]]`
-//! (normalised so the middle element is 1: the LTC is scale invariant),
-//! `mag = ∫ f_spec(F=1) cos`, `fres = ∫ f_spec(F=1) cos (1 - wo.h)^5` (so the
-//! specular integral is `(F0 mag + (1 - F0) fres) * ∫_P D / hmass`), `hmass`,
-//! the mass of `D` above the horizon (the BRDF is zero below it, so we clip
-//! there and renormalise), and `err`, the fit's relative L1 error
-//! `∫ |f cos - mag D/hmass| / mag` (diagnostic only).
+//! direction, so the view is `(sin θv, 0, cos θv)`), the specular integrand
+//! with Schlick Fresnel splits into two lobes,
+//! `f_spec(F=1) cos = A(w)` and `f_spec(F=1) cos (1 - wo.h)^5 = B(w)`, so that
+//! `f_spec cos = F0 A + (1 - F0) B`. Each lobe gets its own linearly
+//! transformed cosine: `A ~ mag D_A / hmass` and `B ~ fres D_B / fhmass` on the
+//! upper hemisphere, each mixed with a plain clamped cosine about the normal:
+//! `A ~ mag ((1 - mix) D_A / hmass + mix cos/π)`, and likewise `B` with
+//! `fmix`. The cosine's integral over the light is the Lambert form factor,
+//! which U computes anyway, so the mixture costs nothing at run time, and it
+//! lets the fit follow rough lobes, which are flatter than any single
+//! transformed cosine (at alpha = 1 and normal view `f cos` is nearly
+//! uniform). (One shared shape for both, as Heitz et al. do, was the
+//! largest error of U for dielectrics: `B` sits further from the view than
+//! `A`, and at F0 = 0.04 it carries most of the highlight at grazing views.)
+//! A cell stores, per lobe, `M^-1 = [[m00, 0, m02], [0, 1, 0], [m20, 0, m22]]`
+//! (normalised so the middle element is 1: the LTC is scale invariant), the
+//! lobe's integral over the hemisphere (`mag`, `fres`) and the mass of its `D`
+//! above the horizon (`hmass`, `fhmass`: the BRDF is zero below it, so we clip
+//! there and renormalise); and `err`, the fit's error on polygon integrals
+//! (diagnostic only, see `ltc_fit`).
 
 use glam::DMat3;
 use std::sync::OnceLock;
 
 /// Values per cell, in this order.
-pub const FIELDS: usize = 8;
+pub const FIELDS: usize = 15;
 const MAGIC: &[u8; 4] = b"PLTC";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// One table cell (or an interpolation of four).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -30,15 +40,36 @@ pub struct LtcCell {
     pub m20: f32,
     pub m22: f32,
     pub mag: f32,
-    pub fres: f32,
     pub hmass: f32,
+    pub mix: f32,
+    pub f00: f32,
+    pub f02: f32,
+    pub f20: f32,
+    pub f22: f32,
+    pub fres: f32,
+    pub fhmass: f32,
+    pub fmix: f32,
     pub err: f32,
 }
 
 impl LtcCell {
     pub fn to_array(&self) -> [f32; FIELDS] {
         [
-            self.m00, self.m02, self.m20, self.m22, self.mag, self.fres, self.hmass, self.err,
+            self.m00,
+            self.m02,
+            self.m20,
+            self.m22,
+            self.mag,
+            self.hmass,
+            self.mix,
+            self.f00,
+            self.f02,
+            self.f20,
+            self.f22,
+            self.fres,
+            self.fhmass,
+            self.fmix,
+            self.err,
         ]
     }
 
@@ -49,26 +80,34 @@ impl LtcCell {
             m20: a[2],
             m22: a[3],
             mag: a[4],
-            fres: a[5],
-            hmass: a[6],
-            err: a[7],
+            hmass: a[5],
+            mix: a[6],
+            f00: a[7],
+            f02: a[8],
+            f20: a[9],
+            f22: a[10],
+            fres: a[11],
+            fhmass: a[12],
+            fmix: a[13],
+            err: a[14],
         }
     }
 
-    /// `M^-1` as a matrix (column-major, as glam stores it).
+    /// `M^-1` of the F0 lobe `A` as a matrix (column-major, as glam stores it).
     pub fn inv_matrix(&self) -> DMat3 {
-        DMat3::from_cols_array(&[
-            self.m00 as f64,
-            0.0,
-            self.m20 as f64,
-            0.0,
-            1.0,
-            0.0,
-            self.m02 as f64,
-            0.0,
-            self.m22 as f64,
-        ])
+        inv_matrix([self.m00, self.m02, self.m20, self.m22])
     }
+
+    /// `M^-1` of the Schlick lobe `B`.
+    pub fn fresnel_inv_matrix(&self) -> DMat3 {
+        inv_matrix([self.f00, self.f02, self.f20, self.f22])
+    }
+}
+
+fn inv_matrix([m00, m02, m20, m22]: [f32; 4]) -> DMat3 {
+    DMat3::from_cols_array(&[
+        m00 as f64, 0.0, m20 as f64, 0.0, 1.0, 0.0, m02 as f64, 0.0, m22 as f64,
+    ])
 }
 
 /// A `size x size` table over roughness (column index `i`, roughness
@@ -204,7 +243,7 @@ mod tests {
         assert_eq!(&LtcTable::from_bytes(&t.to_bytes()).unwrap(), t);
         for c in &t.cells {
             assert!(c.to_array().iter().all(|v| v.is_finite()));
-            assert!(c.mag > 0.0 && c.hmass > 0.0 && c.fres >= 0.0);
+            assert!(c.mag > 0.0 && c.hmass > 0.0 && c.fres >= 0.0 && c.fhmass > 0.0);
         }
     }
 }

@@ -196,10 +196,11 @@ pub fn edge_sum(poly: &Polygon) -> f64 {
 /// `edge_sum` of `K` polygons of exactly `N` vertices each (`v[k][..N]`),
 /// computed together. The arithmetic is `edge_sum`'s (normalise each vertex
 /// once, then each edge reads its two unit vertices), arranged for speed:
-/// - U needs two polygons with the same vertex count (the light in the
-///   shading frame for Lambert, and in LTC space for GGX); doing them in
-///   lockstep lets the compiler pair them into 2-wide `f64` SIMD and
-///   overlaps their square roots and divisions, the latency of U;
+/// - U needs three polygons with the same vertex count (the light in the
+///   shading frame for Lambert and the cosine part of each lobe, and its
+///   images in the two LTC spaces); doing them in lockstep lets the
+///   compiler pack them into `f64` SIMD and overlaps their square roots and
+///   divisions, the latency of U;
 /// - the normalisations carry no branch;
 /// - `pi / sin` is needed only by edges spanning more than 90 degrees
 ///   (cos < 0, only on very wide polygons): one well-predicted test keeps
@@ -256,16 +257,23 @@ pub fn edge_sum_fixed(v: &[DVec3; MAX_VERTICES], n: usize) -> f64 {
     }
 }
 
-/// `[edge_sum(a), edge_sum(b)]` for two polygons of `n` vertices each.
+/// `[edge_sum(a), edge_sum(b), edge_sum(c)]` for three polygons of `n`
+/// vertices each (the light for Lambert and its two LTC images).
 #[inline(always)]
-pub fn edge_sum_pair(a: &[DVec3; MAX_VERTICES], b: &[DVec3; MAX_VERTICES], n: usize) -> [f64; 2] {
+pub fn edge_sum_triple(
+    a: &[DVec3; MAX_VERTICES],
+    b: &[DVec3; MAX_VERTICES],
+    c: &[DVec3; MAX_VERTICES],
+    n: usize,
+) -> [f64; 3] {
     match n {
-        0..=2 => [0.0; 2],
-        3 => edge_sums::<2, 3>([a, b]),
-        4 => edge_sums::<2, 4>([a, b]),
+        0..=2 => [0.0; 3],
+        3 => edge_sums::<3, 3>([a, b, c]),
+        4 => edge_sums::<3, 4>([a, b, c]),
         _ => [
             edge_sum(&Polygon { v: *a, n }),
             edge_sum(&Polygon { v: *b, n }),
+            edge_sum(&Polygon { v: *c, n }),
         ],
     }
 }

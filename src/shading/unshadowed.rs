@@ -16,7 +16,7 @@
 
 use super::brdf::Frame;
 use super::ltc;
-use super::polygon::{MAX_LIGHT_VERTICES, MAX_VERTICES, Polygon, edge_sum_fixed, edge_sum_pair};
+use super::polygon::{MAX_LIGHT_VERTICES, MAX_VERTICES, Polygon, edge_sum_fixed, edge_sum_triple};
 use crate::scene::Light;
 use glam::{DVec3, Vec3};
 
@@ -119,50 +119,81 @@ pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Ve
     }
 
     let want_d = sp.diffuse != Vec3::ZERO;
-    let want_s = sp.specular != Vec3::ZERO;
-    // Lambert integrates `poly`, GGX its LTC image `lp`; when both are
-    // wanted and `lp` needs no clip of its own (the common case) their
-    // contour sums run in lockstep (see `edge_sum_pair`).
-    let (mut ff, mut i_spec, mut cell) = (0.0, 0.0, None);
-    if want_s {
-        let c = ltc::table().lookup(sp.roughness, sp.n.dot(sp.wo));
-        // M^-1 = [[m00, 0, m02], [0, 1, 0], [m20, 0, m22]]: apply only the
-        // four non-trivial entries instead of a full 3x3 product.
-        let (m00, m02, m20, m22) = (c.m00 as f64, c.m02 as f64, c.m20 as f64, c.m22 as f64);
-        let mut lp = poly;
-        let mut below = false;
-        for v in &mut lp.v[..poly.n] {
-            let (x, z) = (v.x, v.z);
-            v.x = m00 * x + m02 * z;
-            v.z = m20 * x + m22 * z;
-            below |= v.z < 0.0;
+    if sp.specular == Vec3::ZERO {
+        if !want_d {
+            return zero;
         }
-        if below {
-            lp = lp.clip_upper();
-        }
-        if want_d && lp.n == poly.n {
-            [ff, i_spec] = edge_sum_pair(&poly.v, &lp.v, poly.n);
-        } else {
-            i_spec = edge_sum_fixed(&lp.v, lp.n);
-            if want_d {
-                ff = edge_sum_fixed(&poly.v, poly.n);
-            }
-        }
-        cell = Some(c);
-    } else if want_d {
-        ff = edge_sum_fixed(&poly.v, poly.n);
+        let ff = form_factor(edge_sum_fixed(&poly.v, poly.n));
+        return nonnegative(sp.diffuse * light.radiance * ff as f32, Vec3::ZERO);
     }
-
-    // (diffuse/π) ∫ cos dω = diffuse * form factor.
-    let diffuse = sp.diffuse * light.radiance * form_factor(ff) as f32;
-    let specular = match cell {
-        Some(c) => {
-            let scale = sp.specular * c.mag + (Vec3::ONE - sp.specular) * c.fres;
-            light.radiance * scale * (form_factor(i_spec) as f32 / c.hmass)
-        }
-        None => Vec3::ZERO,
+    // The specular integrand is F0 A + (1 - F0) B (see `ltc`), each lobe
+    // with its own LTC; a lobe whose weight is zero in every channel is
+    // skipped (metals with F0 = 1 need no B).
+    let c = ltc::table().lookup(sp.roughness, sp.n.dot(sp.wo));
+    let want_a = sp.specular.max_element() > 0.0;
+    let want_b = sp.specular.min_element() < 1.0;
+    let la = ltc_image(&poly, [c.m00, c.m02, c.m20, c.m22], want_a);
+    let lb = ltc_image(&poly, [c.f00, c.f02, c.f20, c.f22], want_b);
+    // Lambert integrates `poly`, GGX its LTC images; when their vertex counts
+    // agree (no clip in LTC space, the common case) the contour sums run in
+    // lockstep (see `edge_sum_triple`).
+    let n = poly.n;
+    let [ff, ia, ib] = if (!want_a || la.n == n) && (!want_b || lb.n == n) {
+        edge_sum_triple(&poly.v, &la.v, &lb.v, n)
+    } else {
+        [
+            edge_sum_fixed(&poly.v, n),
+            edge_sum_fixed(&la.v, la.n),
+            edge_sum_fixed(&lb.v, lb.n),
+        ]
     };
-    (diffuse.max(Vec3::ZERO), specular.max(Vec3::ZERO))
+    // (diffuse/π) ∫ cos dω = diffuse * form factor.
+    let ff = form_factor(ff) as f32;
+    let diffuse = sp.diffuse * light.radiance * ff;
+    // Each lobe: LTC mixed with the clamped cosine (whose integral is `ff`).
+    let a = if want_a {
+        c.mag * ((1.0 - c.mix) * form_factor(ia) as f32 / c.hmass + c.mix * ff)
+    } else {
+        0.0
+    };
+    let b = if want_b {
+        c.fres * ((1.0 - c.fmix) * form_factor(ib) as f32 / c.fhmass + c.fmix * ff)
+    } else {
+        0.0
+    };
+    let specular = light.radiance * (sp.specular * a + (Vec3::ONE - sp.specular) * b);
+    nonnegative(diffuse, specular)
+}
+
+/// The LTC image of a (horizon-clipped) polygon, clipped again to the upper
+/// hemisphere of LTC space; an empty polygon when not `wanted`.
+/// `M^-1 = [[m00, 0, m02], [0, 1, 0], [m20, 0, m22]]`: apply only the four
+/// non-trivial entries instead of a full 3x3 product.
+#[inline(always)]
+fn ltc_image(poly: &Polygon, m: [f32; 4], wanted: bool) -> Polygon {
+    let mut lp = *poly;
+    if !wanted {
+        lp.n = 0;
+        return lp;
+    }
+    let [m00, m02, m20, m22] = m.map(f64::from);
+    let mut below = false;
+    for v in &mut lp.v[..poly.n] {
+        let (x, z) = (v.x, v.z);
+        v.x = m00 * x + m02 * z;
+        v.z = m20 * x + m22 * z;
+        below |= v.z < 0.0;
+    }
+    if below {
+        lp = lp.clip_upper();
+    }
+    lp
+}
+
+/// Both lobes clamped to >= 0 (rounding can leave a tiny negative).
+#[inline]
+fn nonnegative(d: Vec3, s: Vec3) -> (Vec3, Vec3) {
+    (d.max(Vec3::ZERO), s.max(Vec3::ZERO))
 }
 
 /// `cosine_integral` from a contour sum: in [0, 1] for either winding.
