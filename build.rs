@@ -48,35 +48,7 @@ fn find() -> Option<Found> {
     find_in(Path::new("/usr/include"), None)
 }
 
-/// Embeds the git revision as `PENUMBRA_GIT_REV` for `penumbra bench`'s
-/// JSON ("unknown" outside a git checkout or without git), and rebuilds
-/// when the checked-out commit changes.
-fn embed_git_revision() {
-    let git = |args: &[&str]| {
-        std::process::Command::new("git")
-            .args(args)
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-    };
-    let rev = git(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
-    println!("cargo:rustc-env=PENUMBRA_GIT_REV={rev}");
-    let mut watched = vec!["HEAD".to_string(), "packed-refs".to_string()];
-    if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"]) {
-        watched.push(branch);
-    }
-    for name in watched {
-        if let Some(path) = git(&["rev-parse", "--git-path", &name])
-            && Path::new(&path).exists()
-        {
-            println!("cargo:rerun-if-changed={path}");
-        }
-    }
-}
-
 fn main() {
-    embed_git_revision();
     println!("cargo:rerun-if-env-changed=EMBREE_DIR");
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo::rustc-check-cfg=cfg(embree3)");

@@ -4,7 +4,7 @@
 //! then thread and resolution scaling and the equal-time comparison.
 
 use super::ceiling::{Ceiling, ray_ceiling};
-use super::machine::{GIT_REVISION, Machine};
+use super::machine::{Machine, git_revision};
 use super::reference::{self, Reference};
 use super::results::*;
 use super::stats::{Spread, interior, interpolate_log_log, median, rel_mse, rel_mse_masked};
@@ -100,7 +100,7 @@ pub fn run(scenes: &[Option<PathBuf>], opts: &BenchOptions) -> Result<BenchRepor
     Ok(BenchReport {
         format: JSON_FORMAT,
         penumbra_version: env!("CARGO_PKG_VERSION").to_string(),
-        git_revision: GIT_REVISION.to_string(),
+        git_revision: git_revision(),
         machine: Machine::this(),
         started_unix,
         settings: Settings {

@@ -33,6 +33,29 @@ pub fn cpu_model(cpuinfo: &str) -> Option<String> {
         .filter(|v| !v.is_empty())
 }
 
-/// The git commit the binary was built from (set by build.rs; "unknown"
-/// when built outside a git checkout).
-pub const GIT_REVISION: &str = env!("PENUMBRA_GIT_REV");
+/// The git commit checked out in the source tree this binary was built in,
+/// with `-dirty` when tracked files differ from it; "unknown" outside a git
+/// checkout or without git. Read at run time: embedding it at build time
+/// would rebuild the crate and every test on each commit. (A binary not
+/// rebuilt since the last checkout reports the newer commit.)
+pub fn git_revision() -> String {
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .arg("-C")
+            .arg(dir)
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    match git(&["rev-parse", "HEAD"]) {
+        Some(rev) if !rev.is_empty() => {
+            let dirty = git(&["status", "--porcelain", "--untracked-files=no"])
+                .is_some_and(|s| !s.is_empty());
+            if dirty { format!("{rev}-dirty") } else { rev }
+        }
+        _ => "unknown".to_string(),
+    }
+}
