@@ -9,6 +9,7 @@ use super::reference::{self, Reference};
 use super::results::*;
 use super::stats::{Spread, interior, interpolate_log_log, median, rel_mse, rel_mse_masked};
 use crate::embree::{self, Device};
+use crate::render::shadow::PacketWidth;
 use crate::render::{Frame, Mode, PhaseTimes, RenderSettings, World};
 use crate::scene::{Camera, Scene};
 use anyhow::{Context, Result};
@@ -25,8 +26,9 @@ pub struct BenchOptions {
     pub reference_spp: u32,
     /// Samples per pixel of `ratio` and `stochastic`, with and without the denoiser.
     pub spps: Vec<u32>,
-    /// Also `soft-shadow` (denoised, 1 spp).
-    pub soft_shadow: bool,
+    /// Also `soft-shadow` (denoised, 1 spp), and undenoised `ratio` at
+    /// 1 spp with shadow rays as 8-wide packets and as single rays.
+    pub extras: bool,
     pub cache_dir: PathBuf,
     pub quick: bool,
 }
@@ -40,7 +42,7 @@ impl BenchOptions {
             frames: 7,
             reference_spp: 256,
             spps: vec![1, 2, 4, 8],
-            soft_shadow: true,
+            extras: true,
             cache_dir,
             quick: false,
         }
@@ -54,33 +56,41 @@ impl BenchOptions {
             frames: 3,
             reference_spp: 64,
             spps: vec![1, 4],
-            soft_shadow: false,
+            extras: false,
             cache_dir,
             quick: true,
         }
     }
 
-    fn configs(&self) -> Vec<(Mode, bool, u32)> {
+    fn configs(&self) -> Vec<(Mode, bool, u32, PacketWidth)> {
         let mut c = Vec::new();
         for mode in [Mode::Ratio, Mode::Stochastic] {
             for denoise in [false, true] {
                 for &spp in &self.spps {
-                    c.push((mode, denoise, spp));
+                    c.push((mode, denoise, spp, PacketWidth::Sixteen));
                 }
             }
         }
-        if self.soft_shadow {
-            c.push((Mode::SoftShadow, true, 1));
+        if self.extras {
+            c.push((Mode::Ratio, false, 1, PacketWidth::Eight));
+            c.push((Mode::Ratio, false, 1, PacketWidth::One));
+            c.push((Mode::SoftShadow, true, 1, PacketWidth::Sixteen));
         }
-        c.push((Mode::Unshadowed, false, 1));
+        c.push((Mode::Unshadowed, false, 1, PacketWidth::Sixteen));
         c
     }
 }
 
-/// The label of a configuration: mode, `+dn` when denoised.
-pub fn label(mode: Mode, denoise: bool) -> String {
+/// The label of a configuration: mode, `+dn` when denoised, ` (x8)` or
+/// ` (x1)` when shadow rays are not 16-wide packets.
+pub fn label(mode: Mode, denoise: bool, packet: PacketWidth) -> String {
     let dn = denoise && mode != Mode::Unshadowed;
-    format!("{}{}", mode.name(), if dn { "+dn" } else { "" })
+    let width = match packet {
+        PacketWidth::Sixteen => "",
+        PacketWidth::Eight => " (x8)",
+        PacketWidth::One => " (x1)",
+    };
+    format!("{}{}{width}", mode.name(), if dn { "+dn" } else { "" })
 }
 
 /// A scene to measure: its file (`None`: the built-in scene).
@@ -254,11 +264,19 @@ fn bench_scene(
     };
 
     let mut configs = Vec::new();
-    for (mode, denoise, spp) in opts.configs() {
+    let todo = opts.configs();
+    for (i, &(mode, denoise, spp, packet)) in todo.iter().enumerate() {
+        eprint!(
+            "\rmeasuring {name}: {} at {spp} spp ({}/{})          ",
+            label(mode, denoise, packet),
+            i + 1,
+            todo.len()
+        );
         let settings = RenderSettings {
             mode,
             denoise,
             spp,
+            packet,
             ..RenderSettings::default()
         };
         let m = bench.measure(&all, size, &settings, Some((&truth, &mask)));
@@ -284,7 +302,7 @@ fn bench_scene(
             )
         };
         configs.push(ConfigReport {
-            label: label(mode, denoise),
+            label: label(mode, denoise, packet),
             mode: mode.name().to_string(),
             denoise: dn,
             spp: if shadowed { spp } else { 0 },
@@ -309,6 +327,7 @@ fn bench_scene(
         });
     }
 
+    eprintln!("\rmeasuring {name}: scaling with threads and resolution          ");
     // Scaling of denoised ratio at 1 spp: one thread against all, and a
     // quarter of the pixels against the full frame.
     let scaled = RenderSettings::default();
@@ -364,7 +383,7 @@ fn bench_scene(
         configs,
         ceilings,
         scaling: Scaling {
-            config: format!("{} 1 spp", label(Mode::Ratio, true)),
+            config: format!("{} 1 spp", label(Mode::Ratio, true, PacketWidth::Sixteen)),
             threads: thread_points,
             thread_speedup,
             ceiling_speedup,
