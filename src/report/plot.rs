@@ -116,6 +116,8 @@ fn draw_scene<DB: DrawingBackend>(
         .y_desc("relMSE against the reference")
         .y_label_formatter(&|y| format!("{y:.0e}"))
         .x_label_formatter(&|x| format!("{x:.0}"))
+        .x_labels(6)
+        .y_labels(6)
         .label_style(("sans-serif", 14))
         .draw()?;
     for (name, colour) in SERIES {
@@ -128,7 +130,8 @@ fn draw_scene<DB: DrawingBackend>(
         if series.is_empty() {
             continue;
         }
-        series.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Joined in sample order: timing noise must not zigzag the curve.
+        series.sort_by_key(|p| p.2);
         let style = ShapeStyle::from(colour).stroke_width(2);
         chart
             .draw_series(LineSeries::new(series.iter().map(|p| (p.0, p.1)), style))?
