@@ -98,6 +98,8 @@ pub fn run(scenes: &[Option<PathBuf>], opts: &BenchOptions) -> Result<BenchRepor
     let started_unix = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
+    // Read before the run: the tree may change while it measures.
+    let git_revision = git_revision();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut reports = Vec::new();
     for path in scenes {
@@ -110,7 +112,7 @@ pub fn run(scenes: &[Option<PathBuf>], opts: &BenchOptions) -> Result<BenchRepor
     Ok(BenchReport {
         format: JSON_FORMAT,
         penumbra_version: env!("CARGO_PKG_VERSION").to_string(),
-        git_revision: git_revision(),
+        git_revision,
         machine: Machine::this(),
         started_unix,
         settings: Settings {
