@@ -122,6 +122,9 @@ struct BenchArgs {
     /// Samples per pixel of the reference (default 256; --quick 64).
     #[arg(long)]
     ref_spp: Option<u32>,
+    /// Print (and with --plot, draw) a report saved by --json instead of measuring.
+    #[arg(long, value_name = "FILE.json")]
+    from_json: Option<PathBuf>,
     /// Where references are cached.
     #[arg(long, default_value = "target/penumbra-cache")]
     cache: PathBuf,
@@ -287,7 +290,24 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
     } else {
         vec![None]
     };
-    let result = report::run(&scenes, &opts)?;
+    let result = match &a.from_json {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            let r: report::results::BenchReport = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not a penumbra bench report", path.display()))?;
+            if r.format != report::results::JSON_FORMAT {
+                bail!(
+                    "{}: report format {} (this build reads {})",
+                    path.display(),
+                    r.format,
+                    report::results::JSON_FORMAT
+                );
+            }
+            r
+        }
+        None => report::run(&scenes, &opts)?,
+    };
     print!("{}", report::format_report(&result));
     if let Some(path) = &a.json {
         let text = serde_json::to_string_pretty(&result)?;

@@ -97,6 +97,49 @@ fn quick_bench_writes_json_whose_figures_are_complete_and_sane() {
 }
 
 #[test]
+fn a_saved_report_is_drawn_as_a_chart_or_refused_clearly_without_a_font() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    let quick = Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args([
+            "bench", "--quick", "--width", "64", "--height", "36", "--json",
+        ])
+        .arg(&json)
+        .arg("--cache")
+        .arg(dir.path().join("cache"))
+        .output()
+        .unwrap();
+    assert!(quick.status.success());
+    let png = dir.path().join("chart.png");
+    let plot = Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args(["bench", "--from-json"])
+        .arg(&json)
+        .arg("--plot")
+        .arg(&png)
+        .output()
+        .unwrap();
+    let font = Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").is_file()
+        || Path::new("/usr/share/fonts/dejavu/DejaVuSans.ttf").is_file();
+    if font {
+        assert!(
+            plot.status.success(),
+            "{}",
+            String::from_utf8_lossy(&plot.stderr)
+        );
+        let img = image::open(&png).unwrap().to_rgb8();
+        assert!(img.width() > 100 && img.height() > 100);
+        assert!(
+            img.pixels().any(|p| p.0 != [255, 255, 255]),
+            "something is drawn"
+        );
+    } else {
+        assert!(!plot.status.success());
+        let err = String::from_utf8_lossy(&plot.stderr);
+        assert!(err.contains("fonts-dejavu-core"), "{err}");
+    }
+}
+
+#[test]
 fn reference_is_rendered_once_then_read_back_from_the_cache() {
     let dir = tempfile::tempdir().unwrap();
     let path = Path::new("scenes/shadow-plane.toml");

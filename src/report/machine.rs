@@ -1,9 +1,9 @@
 //! What a benchmark ran on and which code it measured, so two runs can be
 //! compared.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Machine {
     /// Logical CPUs available to this process.
     pub cores: usize,

@@ -133,20 +133,26 @@ fn draw_scene<DB: DrawingBackend>(
         // Joined in sample order: timing noise must not zigzag the curve.
         series.sort_by_key(|p| p.2);
         let style = ShapeStyle::from(colour).stroke_width(2);
+        // One segment each: joins of a line that turns back (timing noise)
+        // would spike.
+        chart.draw_series(
+            series
+                .windows(2)
+                .map(|w| PathElement::new(vec![(w[0].0, w[0].1), (w[1].0, w[1].1)], style)),
+        )?;
         chart
-            .draw_series(LineSeries::new(series.iter().map(|p| (p.0, p.1)), style))?
+            .draw_series(series.iter().map(|&(x, y, spp)| {
+                let text = if spp > 0 {
+                    format!("{spp}")
+                } else {
+                    String::new()
+                };
+                EmptyElement::at((x, y))
+                    + Circle::new((0, 0), 4, colour.filled())
+                    + Text::new(text, (6, -16), ("sans-serif", 14).into_font())
+            }))?
             .label(name)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-        chart.draw_series(series.iter().map(|&(x, y, spp)| {
-            let text = if spp > 0 {
-                format!("{spp}")
-            } else {
-                String::new()
-            };
-            EmptyElement::at((x, y))
-                + Circle::new((0, 0), 4, colour.filled())
-                + Text::new(text, (6, -16), ("sans-serif", 14).into_font())
-        }))?;
     }
     chart
         .configure_series_labels()

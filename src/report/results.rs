@@ -3,12 +3,12 @@
 
 use super::machine::Machine;
 use super::stats::Spread;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Bumped when a field changes meaning, so old JSON files are not misread.
 pub const JSON_FORMAT: u32 = 1;
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct BenchReport {
     pub format: u32,
     pub penumbra_version: String,
@@ -20,7 +20,7 @@ pub struct BenchReport {
     pub scenes: Vec<SceneReport>,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Settings {
     pub width: u32,
     pub height: u32,
@@ -35,7 +35,7 @@ pub struct Settings {
     pub error_method: String,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SceneReport {
     pub scene: String,
     pub triangles: usize,
@@ -49,7 +49,7 @@ pub struct SceneReport {
     pub equal_time: Vec<EqualTime>,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ReferenceInfo {
     pub spp: u32,
     pub seed: u32,
@@ -58,7 +58,7 @@ pub struct ReferenceInfo {
     pub render_seconds: f64,
 }
 
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
 pub struct Stages {
     /// Thread time per stage divided by the thread count (the stages run
     /// fused per band); `denoise` is wall time.
@@ -69,7 +69,7 @@ pub struct Stages {
     pub composite: f64,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ConfigReport {
     /// Mode, `+dn` when denoised.
     pub label: String,
@@ -99,7 +99,7 @@ pub struct ConfigReport {
     pub over_ceiling: f64,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CeilingReport {
     /// Shadow rays per surface pixel.
     pub spp: u32,
@@ -111,14 +111,14 @@ pub struct CeilingReport {
     pub shadow_rays: u64,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ThreadPoint {
     pub threads: usize,
     pub frame_ms: Spread,
     pub ceiling_ms: f64,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ResolutionPoint {
     pub width: u32,
     pub height: u32,
@@ -127,7 +127,7 @@ pub struct ResolutionPoint {
     pub ns_per_pixel: f64,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Scaling {
     /// The configuration scaled (denoised ratio, 1 spp).
     pub config: String,
@@ -141,7 +141,7 @@ pub struct Scaling {
     pub per_pixel_ratio: f64,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct EqualTime {
     /// The measured point the comparison is anchored at.
     pub anchor: String,

@@ -65,7 +65,7 @@ pub fn rel_mse_masked(x: &[glam::Vec3], reference: &[glam::Vec3], mask: &[bool])
 }
 
 /// Median and spread of repeated measurements: extremes and quartiles.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Spread {
     pub median: f64,
     pub min: f64,
