@@ -2,10 +2,11 @@
 SHELL := /bin/bash
 CARGO ?= cargo
 BIN := target/release/penumbra
-# Debian packages the build and the tests need.
-APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind
+# Debian packages the build and the tests need (fonts-dejavu-core: the font of
+# `penumbra bench --plot`; valgrind: `make memcheck`; the build needs neither).
+APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 
-.PHONY: run test deps build lint bench fit-ltc clean fuzz memcheck longrun
+.PHONY: run test deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun
 
 # Installs missing Debian packages when root or sudo is available.
 deps:
@@ -32,9 +33,15 @@ lint: deps
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --release --all-targets -- -D warnings
 
+# Criterion micro-benchmarks, then speed against error on the shipped scenes
+# (references are cached under target/penumbra-cache; the first run renders them).
 bench: build
 	$(CARGO) bench
-	$(BIN) bench scenes/shadow-plane.toml scenes/room.toml scenes/many-tris.toml
+	$(BIN) bench --json target/bench.json --plot docs/speed-vs-error.png
+
+# The smoke run: seconds, small frames, a cheap reference.
+bench-quick: build
+	$(BIN) bench --quick --json target/bench-quick.json
 
 fit-ltc: build
 	$(BIN) fit-ltc --size 64 --out data/ltc_64.bin --heatmap docs/ltc-fit-error.png

@@ -26,7 +26,7 @@ enum Command {
     Render(RenderArgs),
     /// Open an interactive window on a scene.
     View(ViewArgs),
-    /// Measure frame time against the Embree ray ceiling.
+    /// Measure speed against error, the Embree ceiling and scaling.
     Bench(BenchArgs),
     /// Fit the LTC table for the project's GGX BRDF.
     FitLtc(FitArgs),
@@ -110,16 +110,37 @@ struct ViewArgs {
 
 #[derive(Args)]
 struct BenchArgs {
-    /// Scenes to measure (default: the built-in scene).
+    /// Scenes to measure (default: scenes/shadow-plane.toml and
+    /// scenes/room.toml when present, else the built-in scene; --quick: the
+    /// built-in scene).
     scenes: Vec<PathBuf>,
-    /// Frames measured per configuration (median reported).
-    #[arg(long, default_value_t = 9)]
-    frames: u32,
-    /// Width, height of the measured frames.
-    #[arg(long, default_value_t = 1280)]
-    width: u32,
-    #[arg(long, default_value_t = 720)]
-    height: u32,
+    /// Small frames, few configurations, a cheap reference: a smoke run.
+    #[arg(long)]
+    quick: bool,
+    /// Write every figure, the machine and the git revision as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Draw relMSE against ms per frame (log-log) to this PNG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Frames measured per configuration after one warm-up (default 7; --quick 3).
+    #[arg(long)]
+    frames: Option<u32>,
+    /// Frame width (default 1280; --quick 256).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Frame height (default 720; --quick 144).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Samples per pixel of the reference (default 256; --quick 64).
+    #[arg(long)]
+    ref_spp: Option<u32>,
+    /// Print (and with --plot, draw) a report saved by --json instead of measuring.
+    #[arg(long, value_name = "FILE.json")]
+    from_json: Option<PathBuf>,
+    /// Where references are cached.
+    #[arg(long, default_value = "target/penumbra-cache")]
+    cache: PathBuf,
 }
 
 #[derive(Args)]
@@ -305,15 +326,62 @@ fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {
 }
 
 fn cmd_bench(a: BenchArgs) -> Result<()> {
-    let scenes: Vec<Option<PathBuf>> = if a.scenes.is_empty() {
-        vec![None]
+    use penumbra::report::{self, BenchOptions};
+    let mut opts = if a.quick {
+        BenchOptions::quick(a.cache)
     } else {
-        a.scenes.into_iter().map(Some).collect()
+        BenchOptions::full(a.cache)
     };
-    for path in scenes {
-        let scene = load_scene(path.as_deref())?;
-        let report = penumbra::report::bench_scene(scene, a.width, a.height, a.frames.max(1))?;
-        print!("{report}");
+    opts.width = a.width.unwrap_or(opts.width);
+    opts.height = a.height.unwrap_or(opts.height);
+    opts.frames = a.frames.unwrap_or(opts.frames);
+    opts.reference_spp = a.ref_spp.unwrap_or(opts.reference_spp);
+    penumbra::scene::check_resolution(opts.width, opts.height).map_err(anyhow::Error::msg)?;
+    if opts.frames == 0 || opts.reference_spp == 0 {
+        bail!("--frames and --ref-spp must be at least 1");
+    }
+    if a.plot.is_some() {
+        // A missing font is reported now, not after the run.
+        report::plot::load_font()?;
+    }
+    let shipped = [
+        PathBuf::from("scenes/shadow-plane.toml"),
+        PathBuf::from("scenes/room.toml"),
+    ];
+    let scenes: Vec<Option<PathBuf>> = if !a.scenes.is_empty() {
+        a.scenes.into_iter().map(Some).collect()
+    } else if !a.quick && shipped.iter().all(|p| p.is_file()) {
+        shipped.into_iter().map(Some).collect()
+    } else {
+        vec![None]
+    };
+    let result = match &a.from_json {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            let r: report::results::BenchReport = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not a penumbra bench report", path.display()))?;
+            if r.format != report::results::JSON_FORMAT {
+                bail!(
+                    "{}: report format {} (this build reads {})",
+                    path.display(),
+                    r.format,
+                    report::results::JSON_FORMAT
+                );
+            }
+            r
+        }
+        None => report::run(&scenes, &opts)?,
+    };
+    print!("{}", report::format_report(&result));
+    if let Some(path) = &a.json {
+        let text = serde_json::to_string_pretty(&result)?;
+        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
+        println!("{}", path.display());
+    }
+    if let Some(path) = &a.plot {
+        report::plot::plot(&result, path)?;
+        println!("{}", path.display());
     }
     Ok(())
 }

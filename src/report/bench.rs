@@ -1,113 +1,432 @@
-//! `penumbra bench`: median frame time per mode, its split by stage, and the
-//! ratio to the Embree ceiling (the same number of rays, no shading), at one
-//! thread and at all threads.
+//! `penumbra bench`: for each configuration (mode, denoiser, spp) the
+//! median and spread of the frame time and its stages, rays per second,
+//! relMSE against a cached reference, and the ratio to the Embree ceiling;
+//! then thread and resolution scaling and the equal-time comparison.
 
-use super::ceiling::ray_ceiling;
-use super::stats::median;
+use super::ceiling::{Ceiling, ray_ceiling};
+use super::machine::{Machine, git_revision};
+use super::reference::{self, Reference};
+use super::results::*;
+use super::stats::{Spread, interior, interpolate_log_log, median, rel_mse, rel_mse_masked};
 use crate::embree::{self, Device};
 use crate::render::shadow::PacketWidth;
 use crate::render::{Frame, Mode, PhaseTimes, RenderSettings, World};
-use crate::scene::Scene;
+use crate::scene::{Camera, Scene};
 use anyhow::{Context, Result};
-use std::fmt::Write;
+use glam::Vec3;
+use std::path::{Path, PathBuf};
 
-/// The configurations measured: mode, whether the denoiser runs, and how
-/// shadow rays reach Embree.
-const CONFIGS: [(Mode, bool, PacketWidth); 8] = [
-    (Mode::Ratio, true, PacketWidth::Sixteen),
-    (Mode::Ratio, false, PacketWidth::Sixteen),
-    (Mode::Ratio, false, PacketWidth::Eight),
-    (Mode::Ratio, false, PacketWidth::One),
-    (Mode::Stochastic, true, PacketWidth::Sixteen),
-    (Mode::Stochastic, false, PacketWidth::Sixteen),
-    (Mode::SoftShadow, false, PacketWidth::Sixteen),
-    (Mode::Unshadowed, false, PacketWidth::Sixteen),
-];
+/// What to measure.
+#[derive(Debug, Clone)]
+pub struct BenchOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Frames measured per configuration, after one warm-up frame.
+    pub frames: u32,
+    pub reference_spp: u32,
+    /// Samples per pixel of `ratio` and `stochastic`, with and without the denoiser.
+    pub spps: Vec<u32>,
+    /// Also `soft-shadow` (denoised, 1 spp), and undenoised `ratio` at
+    /// 1 spp with shadow rays as 8-wide packets and as single rays.
+    pub extras: bool,
+    pub cache_dir: PathBuf,
+    pub quick: bool,
+}
 
-pub fn bench_scene(scene: Scene, width: u32, height: u32, frames: u32) -> Result<String> {
-    let name = scene.source.display().to_string();
-    let tris = scene.triangle_count();
+impl BenchOptions {
+    /// The full run: 1280x720, 1-8 spp, every mode.
+    pub fn full(cache_dir: PathBuf) -> BenchOptions {
+        BenchOptions {
+            width: 1280,
+            height: 720,
+            frames: 7,
+            reference_spp: 256,
+            spps: vec![1, 2, 4, 8],
+            extras: true,
+            cache_dir,
+            quick: false,
+        }
+    }
+
+    /// A smoke run for CI: small frames, few configurations, a cheap reference.
+    pub fn quick(cache_dir: PathBuf) -> BenchOptions {
+        BenchOptions {
+            width: 256,
+            height: 144,
+            frames: 3,
+            reference_spp: 64,
+            spps: vec![1, 4],
+            extras: false,
+            cache_dir,
+            quick: true,
+        }
+    }
+
+    fn configs(&self) -> Vec<(Mode, bool, u32, PacketWidth)> {
+        let mut c = Vec::new();
+        for mode in [Mode::Ratio, Mode::Stochastic] {
+            for denoise in [false, true] {
+                for &spp in &self.spps {
+                    c.push((mode, denoise, spp, PacketWidth::Sixteen));
+                }
+            }
+        }
+        if self.extras {
+            c.push((Mode::Ratio, false, 1, PacketWidth::Eight));
+            c.push((Mode::Ratio, false, 1, PacketWidth::One));
+            c.push((Mode::SoftShadow, true, 1, PacketWidth::Sixteen));
+        }
+        c.push((Mode::Unshadowed, false, 1, PacketWidth::Sixteen));
+        c
+    }
+}
+
+/// The label of a configuration: mode, `+dn` when denoised, ` (x8)` or
+/// ` (x1)` when shadow rays are not 16-wide packets.
+pub fn label(mode: Mode, denoise: bool, packet: PacketWidth) -> String {
+    let dn = denoise && mode != Mode::Unshadowed;
+    let width = match packet {
+        PacketWidth::Sixteen => "",
+        PacketWidth::Eight => " (x8)",
+        PacketWidth::One => " (x1)",
+    };
+    format!("{}{}{width}", mode.name(), if dn { "+dn" } else { "" })
+}
+
+/// A scene to measure: its file (`None`: the built-in scene).
+pub fn run(scenes: &[Option<PathBuf>], opts: &BenchOptions) -> Result<BenchReport> {
+    let started_unix = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    // Read before the run: the tree may change while it measures.
+    let git_revision = git_revision();
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut reports = Vec::new();
+    for path in scenes {
+        let scene = match path {
+            Some(p) => Scene::load(p)?,
+            None => Scene::builtin(),
+        };
+        reports.push(bench_scene(scene, path.as_deref(), opts, threads)?);
+    }
+    Ok(BenchReport {
+        format: JSON_FORMAT,
+        penumbra_version: env!("CARGO_PKG_VERSION").to_string(),
+        git_revision,
+        machine: Machine::this(),
+        started_unix,
+        settings: Settings {
+            width: opts.width,
+            height: opts.height,
+            threads,
+            warmup_frames: 1,
+            measured_frames: opts.frames,
+            reference_spp: opts.reference_spp,
+            quick: opts.quick,
+            error_method: format!(
+                "relMSE = mean((x-ref)^2/(ref^2+1e-2)) over pixels and channels, static camera; \
+                 undenoised: median over the {} measured frames (each a single-frame estimate); \
+                 denoised: the last frame, i.e. frame {} of a static camera with temporal history \
+                 (rel_mse_first_frame: frame 1, no history)",
+                opts.frames,
+                opts.frames + 1
+            ),
+        },
+        scenes: reports,
+    })
+}
+
+/// One configuration's repeated frames.
+struct Measured {
+    runs: Vec<PhaseTimes>,
+    /// relMSE per measured frame, all pixels and interior.
+    errors: Vec<(f64, f64)>,
+    first_frame_error: Option<f64>,
+}
+
+struct Bench<'a, 'd> {
+    world: &'a World<'d>,
+    camera: Camera,
+    frames: u32,
+}
+
+impl Bench<'_, '_> {
+    /// One warm-up frame, then `frames` measured ones, of a static camera.
+    fn measure(
+        &self,
+        pool: &rayon::ThreadPool,
+        (width, height): (u32, u32),
+        settings: &RenderSettings,
+        truth: Option<(&[Vec3], &[bool])>,
+    ) -> Measured {
+        let mut frame = Frame::new(width, height);
+        pool.install(|| frame.render(self.world, &self.camera, settings));
+        let error =
+            |f: &Frame| truth.map(|(r, m)| (rel_mse(&f.color, r), rel_mse_masked(&f.color, r, m)));
+        let first_frame_error = error(&frame).map(|e| e.0);
+        let mut runs = Vec::new();
+        let mut errors = Vec::new();
+        for _ in 0..self.frames {
+            runs.push(pool.install(|| frame.render(self.world, &self.camera, settings)));
+            errors.extend(error(&frame));
+        }
+        Measured {
+            runs,
+            errors,
+            first_frame_error,
+        }
+    }
+
+    /// Embree alone on the same rays, median over `frames` runs.
+    fn ceiling(
+        &self,
+        pool: &rayon::ThreadPool,
+        (width, height): (u32, u32),
+        spp: u32,
+    ) -> (Spread, Ceiling) {
+        let runs: Vec<Ceiling> = (0..self.frames.max(3))
+            .map(|_| pool.install(|| ray_ceiling(self.world, &self.camera, width, height, spp)))
+            .collect();
+        let totals: Vec<f64> = runs.iter().map(|c| c.total()).collect();
+        let mid = Ceiling {
+            primary: median(&runs.iter().map(|c| c.primary).collect::<Vec<_>>()),
+            shadow: median(&runs.iter().map(|c| c.shadow).collect::<Vec<_>>()),
+            shadow_rays: runs[0].shadow_rays,
+        };
+        (Spread::of(&totals).scaled(1e3), mid)
+    }
+}
+
+fn frame_spread(runs: &[PhaseTimes]) -> Spread {
+    Spread::of(&runs.iter().map(|r| r.wall).collect::<Vec<_>>()).scaled(1e3)
+}
+
+fn bench_scene(
+    scene: Scene,
+    path: Option<&Path>,
+    opts: &BenchOptions,
+    threads: usize,
+) -> Result<SceneReport> {
+    let name = path.map_or("<builtin>".into(), |p| p.display().to_string());
+    let (triangles, lights) = (scene.triangle_count(), scene.lights.len());
     let camera = scene.camera;
     let device = Device::new().context("starting Embree")?;
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut out = String::new();
-    writeln!(
-        out,
-        "scene {name}: {tris} triangles, {width}x{height}, 1 spp, median of {frames} frames after one warm-up (ms; stage times are thread time / threads)"
-    )?;
-    writeln!(
-        out,
-        "{:<16} {:>7} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9}",
-        "mode", "threads", "frame", "primary", "U", "shadow", "denoise", "composite", "/ceiling"
-    )?;
-    let mut frame_ms = Vec::new();
-    for t in [1usize, threads] {
-        let pool = embree::thread_pool(t)?;
-        let ceilings: Vec<_> = (0..frames)
-            .map(|_| pool.install(|| ray_ceiling(&world, &camera, width, height, 1)))
-            .collect();
-        let ceiling = median(&ceilings.iter().map(|c| c.total()).collect::<Vec<_>>());
-        for (mode, denoise, packet) in CONFIGS {
-            let settings = RenderSettings {
-                mode,
-                denoise,
-                packet,
-                ..RenderSettings::default()
-            };
-            let mut frame = Frame::new(width, height);
-            pool.install(|| frame.render(&world, &camera, &settings));
-            let runs: Vec<PhaseTimes> = (0..frames)
-                .map(|_| pool.install(|| frame.render(&world, &camera, &settings)))
-                .collect();
-            let wall = median(&runs.iter().map(|r| r.wall).collect::<Vec<_>>());
-            let stage = |f: fn(&PhaseTimes) -> f64| {
-                median(&runs.iter().map(f).collect::<Vec<_>>()) / t as f64 * 1e3
-            };
-            let label = format!(
-                "{}{}{}",
-                mode.name(),
-                if denoise { "+dn" } else { "" },
-                match packet {
-                    PacketWidth::Sixteen => "",
-                    PacketWidth::Eight => " (x8)",
-                    PacketWidth::One => " (x1)",
-                }
-            );
-            writeln!(
-                out,
-                "{:<16} {:>7} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>9.2}",
-                label,
-                t,
-                wall * 1e3,
-                stage(|r| r.primary),
-                stage(|r| r.u),
-                stage(|r| r.shadow),
-                median(&runs.iter().map(|r| r.denoise).collect::<Vec<_>>()) * 1e3,
-                stage(|r| r.composite),
-                wall / ceiling
-            )?;
-            if mode == Mode::Ratio && denoise && packet == PacketWidth::Sixteen {
-                frame_ms.push(wall);
-            }
+    let all = embree::thread_pool(threads)?;
+    let size = (opts.width, opts.height);
+    let pixels = opts.width as u64 * opts.height as u64;
+    let bench = Bench {
+        world: &world,
+        camera,
+        frames: opts.frames.max(1),
+    };
+
+    let Reference {
+        color: truth,
+        spp: ref_spp,
+        file,
+        reused,
+        render_seconds,
+    } = all.install(|| {
+        reference::reference(
+            &world,
+            path,
+            opts.width,
+            opts.height,
+            opts.reference_spp,
+            &opts.cache_dir,
+        )
+    })?;
+    let mask = {
+        let mut f = Frame::new(opts.width, opts.height);
+        let s = RenderSettings {
+            mode: Mode::Unshadowed,
+            ..RenderSettings::default()
+        };
+        all.install(|| f.render(&world, &camera, &s));
+        interior(opts.width, opts.height, &f.gbuf)
+    };
+
+    let mut ceilings: Vec<CeilingReport> = Vec::new();
+    let mut ceiling_for = |spp: u32, pool: &rayon::ThreadPool, t: usize| -> f64 {
+        if let Some(c) = ceilings.iter().find(|c| c.spp == spp && c.threads == t) {
+            return c.total_ms.median;
         }
-        let c = &ceilings[0];
-        writeln!(
-            out,
-            "{:<16} {:>7} {:>9.1}   Embree alone: {} camera rays + {} shadow rays, 16-wide packets, no shading",
-            "ceiling",
-            t,
-            ceiling * 1e3,
-            width * height,
-            c.shadow_rays
-        )?;
+        let (total_ms, mid) = bench.ceiling(pool, size, spp);
+        ceilings.push(CeilingReport {
+            spp,
+            threads: t,
+            total_ms,
+            primary_ms: mid.primary * 1e3,
+            shadow_ms: mid.shadow * 1e3,
+            camera_rays: pixels,
+            shadow_rays: mid.shadow_rays as u64,
+        });
+        total_ms.median
+    };
+
+    let mut configs = Vec::new();
+    let todo = opts.configs();
+    for (i, &(mode, denoise, spp, packet)) in todo.iter().enumerate() {
+        eprint!(
+            "\rmeasuring {name}: {} at {spp} spp ({}/{})          ",
+            label(mode, denoise, packet),
+            i + 1,
+            todo.len()
+        );
+        let settings = RenderSettings {
+            mode,
+            denoise,
+            spp,
+            packet,
+            ..RenderSettings::default()
+        };
+        let m = bench.measure(&all, size, &settings, Some((&truth, &mask)));
+        let frame_ms = frame_spread(&m.runs);
+        let stage = |f: fn(&PhaseTimes) -> f64| {
+            median(&m.runs.iter().map(f).collect::<Vec<_>>()) / threads as f64 * 1e3
+        };
+        let shadow_rays = median(
+            &m.runs
+                .iter()
+                .map(|r| r.shadow_rays as f64)
+                .collect::<Vec<_>>(),
+        ) as u64;
+        let shadowed = mode != Mode::Unshadowed;
+        let ceiling_ms = ceiling_for(if shadowed { spp } else { 0 }, &all, threads);
+        let dn = denoise && shadowed;
+        let (rel, rel_in) = if dn {
+            *m.errors.last().expect("at least one measured frame")
+        } else {
+            (
+                median(&m.errors.iter().map(|e| e.0).collect::<Vec<_>>()),
+                median(&m.errors.iter().map(|e| e.1).collect::<Vec<_>>()),
+            )
+        };
+        configs.push(ConfigReport {
+            label: label(mode, denoise, packet),
+            mode: mode.name().to_string(),
+            denoise: dn,
+            spp: if shadowed { spp } else { 0 },
+            threads,
+            frame_ms,
+            fps: 1e3 / frame_ms.median,
+            stages_ms: Stages {
+                primary: stage(|r| r.primary),
+                u: stage(|r| r.u),
+                shadow: stage(|r| r.shadow),
+                denoise: median(&m.runs.iter().map(|r| r.denoise).collect::<Vec<_>>()) * 1e3,
+                composite: stage(|r| r.composite),
+            },
+            camera_rays: pixels,
+            shadow_rays,
+            mrays_per_s: (pixels + shadow_rays) as f64 / (frame_ms.median * 1e-3) * 1e-6,
+            rel_mse: rel,
+            rel_mse_interior: rel_in,
+            rel_mse_first_frame: if dn { m.first_frame_error } else { None },
+            ceiling_ms,
+            over_ceiling: frame_ms.median / ceiling_ms,
+        });
     }
-    if let [one, all] = frame_ms[..] {
-        writeln!(
-            out,
-            "ratio+dn speed-up, {threads} threads over 1: {:.2}x",
-            one / all
-        )?;
+
+    eprintln!("\rmeasuring {name}: scaling with threads and resolution          ");
+    // Scaling of denoised ratio at 1 spp: one thread against all, and a
+    // quarter of the pixels against the full frame.
+    let scaled = RenderSettings::default();
+    let full = configs
+        .iter()
+        .find(|c| c.label == "ratio+dn" && c.spp == 1)
+        .map(|c| c.frame_ms)
+        .unwrap_or_else(|| frame_spread(&bench.measure(&all, size, &scaled, None).runs));
+    let mut thread_points = vec![ThreadPoint {
+        threads,
+        frame_ms: full,
+        ceiling_ms: ceiling_for(1, &all, threads),
+    }];
+    if threads > 1 {
+        let one = embree::thread_pool(1)?;
+        thread_points.insert(
+            0,
+            ThreadPoint {
+                threads: 1,
+                frame_ms: frame_spread(&bench.measure(&one, size, &scaled, None).runs),
+                ceiling_ms: ceiling_for(1, &one, 1),
+            },
+        );
     }
-    Ok(out)
+    let (first, last) = (&thread_points[0], &thread_points[thread_points.len() - 1]);
+    let thread_speedup = first.frame_ms.median / last.frame_ms.median;
+    let ceiling_speedup = first.ceiling_ms / last.ceiling_ms;
+    let half = ((opts.width / 2).max(8), (opts.height / 2).max(8));
+    let half_ms = frame_spread(&bench.measure(&all, half, &scaled, None).runs);
+    let resolution: Vec<ResolutionPoint> = [(size, full), (half, half_ms)]
+        .into_iter()
+        .map(|((w, h), ms)| ResolutionPoint {
+            width: w,
+            height: h,
+            frame_ms: ms,
+            ns_per_pixel: ms.median * 1e6 / (w as f64 * h as f64),
+        })
+        .collect();
+    let per_pixel_ratio = resolution[1].ns_per_pixel / resolution[0].ns_per_pixel;
+
+    Ok(SceneReport {
+        scene: name,
+        triangles,
+        lights,
+        reference: ReferenceInfo {
+            spp: ref_spp,
+            seed: reference::SEED,
+            cache_file: file.display().to_string(),
+            reused,
+            render_seconds,
+        },
+        equal_time: equal_time(&configs),
+        configs,
+        ceilings,
+        scaling: Scaling {
+            config: format!("{} 1 spp", label(Mode::Ratio, true, PacketWidth::Sixteen)),
+            threads: thread_points,
+            thread_speedup,
+            ceiling_speedup,
+            resolution,
+            per_pixel_ratio,
+        },
+    })
+}
+
+/// Denoised `ratio` against denoised `stochastic` at equal frame time: each
+/// measured point of either mode, with the other mode's relMSE interpolated
+/// (log-log) at its ms per frame where that lies within the other's range.
+pub fn equal_time(configs: &[ConfigReport]) -> Vec<EqualTime> {
+    let curve = |mode: &str| -> Vec<(f64, f64, u32)> {
+        configs
+            .iter()
+            .filter(|c| c.mode == mode && c.denoise)
+            .map(|c| (c.frame_ms.median, c.rel_mse, c.spp))
+            .collect()
+    };
+    let (ratio, stoch) = (curve("ratio"), curve("stochastic"));
+    let xy = |c: &[(f64, f64, u32)]| c.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>();
+    let mut out = Vec::new();
+    for &(ms, r, spp) in &ratio {
+        if let Some(s) = interpolate_log_log(&xy(&stoch), ms) {
+            out.push((format!("ratio+dn {spp} spp"), ms, r, s));
+        }
+    }
+    for &(ms, s, spp) in &stoch {
+        if let Some(r) = interpolate_log_log(&xy(&ratio), ms) {
+            out.push((format!("stochastic+dn {spp} spp"), ms, r, s));
+        }
+    }
+    out.sort_by(|a, b| a.1.total_cmp(&b.1));
+    out.into_iter()
+        .map(|(anchor, ms, r, s)| EqualTime {
+            anchor,
+            ms,
+            ratio_rel_mse: r,
+            stochastic_rel_mse: s,
+            stochastic_over_ratio: s / r,
+        })
+        .collect()
 }

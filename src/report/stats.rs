@@ -63,3 +63,68 @@ pub fn rel_mse_masked(x: &[glam::Vec3], reference: &[glam::Vec3], mask: &[bool])
     }
     sum / n.max(1) as f64
 }
+
+/// Median and spread of repeated measurements: extremes and quartiles.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Spread {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+    /// First and third quartiles (linear interpolation between order statistics).
+    pub q1: f64,
+    pub q3: f64,
+}
+
+impl Spread {
+    /// The spread of `values`; all zero if there are none.
+    pub fn of(values: &[f64]) -> Spread {
+        if values.is_empty() {
+            return Spread::default();
+        }
+        let mut v = values.to_vec();
+        v.sort_by(f64::total_cmp);
+        Spread {
+            median: median(&v),
+            min: v[0],
+            max: v[v.len() - 1],
+            q1: quantile_sorted(&v, 0.25),
+            q3: quantile_sorted(&v, 0.75),
+        }
+    }
+
+    /// Every figure multiplied by `k` (e.g. seconds to milliseconds).
+    pub fn scaled(self, k: f64) -> Spread {
+        Spread {
+            median: self.median * k,
+            min: self.min * k,
+            max: self.max * k,
+            q1: self.q1 * k,
+            q3: self.q3 * k,
+        }
+    }
+}
+
+/// The `q`-quantile of sorted, non-empty values.
+fn quantile_sorted(v: &[f64], q: f64) -> f64 {
+    let pos = q * (v.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    v[lo] + (v[hi] - v[lo]) * (pos - lo as f64)
+}
+
+/// `y` at `x` on the polyline through `points` (x ascending after sorting),
+/// interpolated linearly in log x and log y; `None` outside the points' x
+/// range or when a value is not positive.
+pub fn interpolate_log_log(points: &[(f64, f64)], x: f64) -> Option<f64> {
+    let mut p: Vec<(f64, f64)> = points.to_vec();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if x <= 0.0 || p.iter().any(|&(a, b)| a <= 0.0 || b <= 0.0) {
+        return None;
+    }
+    p.windows(2).find(|w| w[0].0 <= x && x <= w[1].0).map(|w| {
+        let (x0, y0, x1, y1) = (w[0].0.ln(), w[0].1.ln(), w[1].0.ln(), w[1].1.ln());
+        if x1 == x0 {
+            return y0.exp();
+        }
+        (y0 + (y1 - y0) * (x.ln() - x0) / (x1 - x0)).exp()
+    })
+}
