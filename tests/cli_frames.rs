@@ -1,4 +1,7 @@
 //! `render --frames N` with `--orbit DEG` and a `{frame}` pattern in `--out`.
+mod common;
+
+use common::FLOOR;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -15,28 +18,16 @@ fn temp_dir(test: &str) -> PathBuf {
     dir
 }
 
-/// A floor, a box on it and a quad light, seen from `eye` towards the origin.
+/// The shared floor, a box on it and a quad light, seen from `eye` towards the origin.
 fn scene_text(eye: [f32; 3]) -> String {
+    let [x, y, z] = eye;
     format!(
         r#"
 [camera]
-eye = [{}, {}, {}]
+eye = [{x}, {y}, {z}]
 target = [0.0, 0.0, 0.0]
 fov_y = 50.0
-
-[[material]]
-name = "m"
-diffuse = [0.5, 0.5, 0.5]
-specular = [0.04, 0.04, 0.04]
-roughness = 0.4
-
-[[object]]
-material = "m"
-type = "quad"
-center = [0.0, 0.0, 0.0]
-u = [0.0, 0.0, 4.0]
-v = [4.0, 0.0, 0.0]
-
+{FLOOR}
 [[object]]
 material = "m"
 type = "box"
@@ -49,8 +40,7 @@ center = [0.5, 3.0, 0.5]
 u = [1.0, 0.0, 0.0]
 v = [0.0, 0.0, 0.5]
 radiance = [8.0, 8.0, 8.0]
-"#,
-        eye[0], eye[1], eye[2]
+"#
     )
 }
 
