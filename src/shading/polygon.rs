@@ -253,7 +253,12 @@ pub fn edge_sum_fixed(v: &[DVec3; MAX_VERTICES], n: usize) -> f64 {
         0..=2 => 0.0,
         3 => edge_sums::<1, 3>([v])[0],
         4 => edge_sums::<1, 4>([v])[0],
-        _ => edge_sum(&Polygon { v: *v, n }),
+        5 => edge_sums::<1, 5>([v])[0],
+        6 => edge_sums::<1, 6>([v])[0],
+        7 => edge_sums::<1, 7>([v])[0],
+        8 => edge_sums::<1, 8>([v])[0],
+        9 => edge_sums::<1, 9>([v])[0],
+        _ => edge_sums::<1, MAX_VERTICES>([v])[0],
     }
 }
 
@@ -270,11 +275,12 @@ pub fn edge_sum_triple(
         0..=2 => [0.0; 3],
         3 => edge_sums::<3, 3>([a, b, c]),
         4 => edge_sums::<3, 4>([a, b, c]),
-        _ => [
-            edge_sum(&Polygon { v: *a, n }),
-            edge_sum(&Polygon { v: *b, n }),
-            edge_sum(&Polygon { v: *c, n }),
-        ],
+        5 => edge_sums::<3, 5>([a, b, c]),
+        6 => edge_sums::<3, 6>([a, b, c]),
+        7 => edge_sums::<3, 7>([a, b, c]),
+        8 => edge_sums::<3, 8>([a, b, c]),
+        9 => edge_sums::<3, 9>([a, b, c]),
+        _ => edge_sums::<3, MAX_VERTICES>([a, b, c]),
     }
 }
 
