@@ -131,7 +131,7 @@ pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Ve
     // The specular integrand is F0 A + (1 - F0) B (see `ltc`), each lobe
     // with its own LTC; a lobe whose weight is zero in every channel is
     // skipped (metals with F0 = 1 need no B).
-    let c = ltc::table().lookup(sp.roughness, sp.n.dot(sp.wo));
+    let c = ltc::packed_table().lookup(sp.roughness, sp.n.dot(sp.wo));
     let want_a = sp.specular.max_element() > 0.0;
     let want_b = sp.specular.min_element() < 1.0;
     let mut la = Polygon::default();
