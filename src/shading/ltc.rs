@@ -24,7 +24,7 @@
 //! there and renormalise); and `err`, the fit's error on polygon integrals
 //! (diagnostic only, see `ltc_fit`).
 
-use glam::DMat3;
+use glam::{DMat3, Vec4};
 use std::sync::OnceLock;
 
 /// Values per cell, in this order.
@@ -232,6 +232,73 @@ pub fn table() -> &'static LtcTable {
     })
 }
 
+/// The table as U reads it: each cell's fields padded to 16 `f32` in one
+/// aligned block, so the bilinear blend of four cells runs as straight
+/// 4-wide vector arithmetic instead of field-by-field conversions. Same data,
+/// same arithmetic as `LtcTable::lookup` (a test checks equality bit for bit).
+#[derive(Clone, Debug)]
+pub struct PackedLtc {
+    size: usize,
+    cells: Vec<PackedCell>,
+}
+
+#[derive(Clone, Copy, Debug)]
+#[repr(align(64))]
+struct PackedCell([Vec4; 4]);
+
+impl PackedLtc {
+    pub fn new(table: &LtcTable) -> PackedLtc {
+        let cells = table
+            .cells
+            .iter()
+            .map(|c| {
+                let mut a = [0.0f32; 16];
+                a[..FIELDS].copy_from_slice(&c.to_array());
+                PackedCell([0, 4, 8, 12].map(|k| Vec4::from_slice(&a[k..k + 4])))
+            })
+            .collect();
+        PackedLtc {
+            size: table.size,
+            cells,
+        }
+    }
+
+    /// `LtcTable::lookup`, on the packed cells.
+    #[inline]
+    pub fn lookup(&self, roughness: f32, cos_view: f32) -> LtcCell {
+        let n = (self.size - 1) as f32;
+        let x = roughness.clamp(0.0, 1.0) * n;
+        let y = (1.0 - cos_view.clamp(0.0, 1.0)).sqrt() * n;
+        let (i0, j0) = (
+            (x as usize).min(self.size - 2),
+            (y as usize).min(self.size - 2),
+        );
+        let (fx, fy) = (x - i0 as f32, y - j0 as f32);
+        let k = j0 * self.size + i0;
+        let (a, b) = (&self.cells[k].0, &self.cells[k + 1].0);
+        let (c, d) = (
+            &self.cells[k + self.size].0,
+            &self.cells[k + self.size + 1].0,
+        );
+        let (fx, fy) = (Vec4::splat(fx), Vec4::splat(fy));
+        let mut r = [0.0f32; 16];
+        for k in 0..4 {
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bot = c[k] + (d[k] - c[k]) * fx;
+            (top + (bot - top) * fy).write_to_slice(&mut r[4 * k..4 * k + 4]);
+        }
+        let mut out = [0.0f32; FIELDS];
+        out.copy_from_slice(&r[..FIELDS]);
+        LtcCell::from_array(out)
+    }
+}
+
+/// The embedded table, packed for U, built once.
+pub fn packed_table() -> &'static PackedLtc {
+    static PACKED: OnceLock<PackedLtc> = OnceLock::new();
+    PACKED.get_or_init(|| PackedLtc::new(table()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -244,6 +311,24 @@ mod tests {
         for c in &t.cells {
             assert!(c.to_array().iter().all(|v| v.is_finite()));
             assert!(c.mag > 0.0 && c.hmass > 0.0 && c.fres >= 0.0 && c.fhmass > 0.0);
+        }
+    }
+
+    #[test]
+    fn packed_lookup_equals_table_lookup_bit_for_bit() {
+        let (t, p) = (table(), packed_table());
+        // Cell centres, cell edges, the table's borders and out-of-range
+        // inputs (clamped): 0.0013 steps do not divide the 1/63 grid.
+        for i in 0..=800 {
+            let r = -0.02 + 1.04 * i as f32 / 800.0;
+            for j in 0..=800 {
+                let cv = -0.02 + 1.04 * j as f32 / 800.0;
+                assert_eq!(
+                    p.lookup(r, cv),
+                    t.lookup(r, cv),
+                    "roughness {r}, cos_view {cv}"
+                );
+            }
         }
     }
 }

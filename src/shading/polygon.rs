@@ -55,35 +55,14 @@ impl Polygon {
     /// z = 0 exactly so that a second clip sees them as inside. Returns an
     /// empty polygon when nothing (of positive area) is left.
     pub fn clip_upper(&self) -> Polygon {
-        let mut out = Polygon::default();
         if self.n < 3 {
-            return out;
+            return Polygon::default();
         }
-        let mut all_inside = true;
-        for a in self.vertices() {
-            all_inside &= a.z >= 0.0;
-        }
-        if all_inside {
+        if self.vertices().iter().all(|a| a.z >= 0.0) {
             return *self;
         }
-        for i in 0..self.n {
-            let a = self.v[i];
-            let b = self.v[if i + 1 == self.n { 0 } else { i + 1 }];
-            if a.z >= 0.0 {
-                out.v[out.n] = a;
-                out.n += 1;
-            }
-            if (a.z > 0.0 && b.z < 0.0) || (a.z < 0.0 && b.z > 0.0) {
-                let t = a.z / (a.z - b.z);
-                let mut p = a + (b - a) * t;
-                p.z = 0.0;
-                out.v[out.n] = p;
-                out.n += 1;
-            }
-        }
-        if out.n < 3 {
-            out.n = 0;
-        }
+        let mut out = Polygon::default();
+        clip_upper_into(self.vertices(), &mut out);
         out
     }
 
@@ -104,6 +83,39 @@ impl Polygon {
             *v = *m * *v;
         }
         out
+    }
+}
+
+/// `clip_upper` of the polygon `src` (at most `MAX_VERTICES - 1` vertices),
+/// written into `out`: the hot path (LTC images of U) clips a third of the
+/// time, and returning a whole `Polygon` by value cost a copy of the buffer
+/// per call.
+#[inline]
+pub fn clip_upper_into(src: &[DVec3], out: &mut Polygon) {
+    let n = src.len();
+    out.n = 0;
+    if n < 3 {
+        return;
+    }
+    // Same order and arithmetic as the textbook loop (vertex, then the
+    // crossing of its outgoing edge), so results are bit-for-bit those of
+    // the former by-value clip.
+    for (i, &a) in src.iter().enumerate() {
+        let b = src[if i + 1 == n { 0 } else { i + 1 }];
+        if a.z >= 0.0 {
+            out.v[out.n] = a;
+            out.n += 1;
+        }
+        if (a.z > 0.0 && b.z < 0.0) || (a.z < 0.0 && b.z > 0.0) {
+            let t = a.z / (a.z - b.z);
+            let mut p = a + (b - a) * t;
+            p.z = 0.0;
+            out.v[out.n] = p;
+            out.n += 1;
+        }
+    }
+    if out.n < 3 {
+        out.n = 0;
     }
 }
 
@@ -253,7 +265,12 @@ pub fn edge_sum_fixed(v: &[DVec3; MAX_VERTICES], n: usize) -> f64 {
         0..=2 => 0.0,
         3 => edge_sums::<1, 3>([v])[0],
         4 => edge_sums::<1, 4>([v])[0],
-        _ => edge_sum(&Polygon { v: *v, n }),
+        5 => edge_sums::<1, 5>([v])[0],
+        6 => edge_sums::<1, 6>([v])[0],
+        7 => edge_sums::<1, 7>([v])[0],
+        8 => edge_sums::<1, 8>([v])[0],
+        9 => edge_sums::<1, 9>([v])[0],
+        _ => edge_sums::<1, MAX_VERTICES>([v])[0],
     }
 }
 
@@ -270,11 +287,12 @@ pub fn edge_sum_triple(
         0..=2 => [0.0; 3],
         3 => edge_sums::<3, 3>([a, b, c]),
         4 => edge_sums::<3, 4>([a, b, c]),
-        _ => [
-            edge_sum(&Polygon { v: *a, n }),
-            edge_sum(&Polygon { v: *b, n }),
-            edge_sum(&Polygon { v: *c, n }),
-        ],
+        5 => edge_sums::<3, 5>([a, b, c]),
+        6 => edge_sums::<3, 6>([a, b, c]),
+        7 => edge_sums::<3, 7>([a, b, c]),
+        8 => edge_sums::<3, 8>([a, b, c]),
+        9 => edge_sums::<3, 9>([a, b, c]),
+        _ => edge_sums::<3, MAX_VERTICES>([a, b, c]),
     }
 }
 

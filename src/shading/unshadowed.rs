@@ -16,7 +16,9 @@
 
 use super::brdf::Frame;
 use super::ltc;
-use super::polygon::{MAX_LIGHT_VERTICES, MAX_VERTICES, Polygon, edge_sum_fixed, edge_sum_triple};
+use super::polygon::{
+    MAX_LIGHT_VERTICES, MAX_VERTICES, Polygon, clip_upper_into, edge_sum_fixed, edge_sum_triple,
+};
 use crate::scene::Light;
 use glam::{DVec3, Vec3};
 
@@ -129,11 +131,17 @@ pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Ve
     // The specular integrand is F0 A + (1 - F0) B (see `ltc`), each lobe
     // with its own LTC; a lobe whose weight is zero in every channel is
     // skipped (metals with F0 = 1 need no B).
-    let c = ltc::table().lookup(sp.roughness, sp.n.dot(sp.wo));
+    let c = ltc::packed_table().lookup(sp.roughness, sp.n.dot(sp.wo));
     let want_a = sp.specular.max_element() > 0.0;
     let want_b = sp.specular.min_element() < 1.0;
-    let la = ltc_image(&poly, [c.m00, c.m02, c.m20, c.m22], want_a);
-    let lb = ltc_image(&poly, [c.f00, c.f02, c.f20, c.f22], want_b);
+    let mut la = Polygon::default();
+    let mut lb = Polygon::default();
+    if want_a {
+        ltc_image(&poly, [c.m00, c.m02, c.m20, c.m22], &mut la);
+    }
+    if want_b {
+        ltc_image(&poly, [c.f00, c.f02, c.f20, c.f22], &mut lb);
+    }
     // Lambert integrates `poly`, GGX its LTC images; when their vertex counts
     // agree (no clip in LTC space, the common case) the contour sums run in
     // lockstep (see `edge_sum_triple`).
@@ -166,28 +174,24 @@ pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Ve
 }
 
 /// The LTC image of a (horizon-clipped) polygon, clipped again to the upper
-/// hemisphere of LTC space; an empty polygon when not `wanted`.
+/// hemisphere of LTC space, written into `out` (no copy of the whole buffer
+/// on the way, see `clip_upper_into`).
 /// `M^-1 = [[m00, 0, m02], [0, 1, 0], [m20, 0, m22]]`: apply only the four
 /// non-trivial entries instead of a full 3x3 product.
 #[inline(always)]
-fn ltc_image(poly: &Polygon, m: [f32; 4], wanted: bool) -> Polygon {
-    let mut lp = *poly;
-    if !wanted {
-        lp.n = 0;
-        return lp;
-    }
+fn ltc_image(poly: &Polygon, m: [f32; 4], out: &mut Polygon) {
     let [m00, m02, m20, m22] = m.map(f64::from);
+    let n = poly.n;
     let mut below = false;
-    for v in &mut lp.v[..poly.n] {
-        let (x, z) = (v.x, v.z);
-        v.x = m00 * x + m02 * z;
-        v.z = m20 * x + m22 * z;
-        below |= v.z < 0.0;
+    for (dst, v) in out.v.iter_mut().zip(&poly.v[..n]) {
+        *dst = DVec3::new(m00 * v.x + m02 * v.z, v.y, m20 * v.x + m22 * v.z);
+        below |= dst.z < 0.0;
     }
+    out.n = n;
     if below {
-        lp = lp.clip_upper();
+        let image = out.v;
+        clip_upper_into(&image[..n], out);
     }
-    lp
 }
 
 /// Both lobes clamped to >= 0 (rounding can leave a tiny negative).
