@@ -20,6 +20,7 @@
 //! frame (or a resize) and reused afterwards.
 
 mod history;
+mod lobe;
 mod noise;
 mod spatial;
 mod temporal;
@@ -28,6 +29,7 @@ mod tiles;
 use glam::{Vec2, Vec3};
 use std::time::Instant;
 
+pub use lobe::Lobe;
 pub use tiles::TILE;
 
 /// Per-pixel guides the renderer fills each frame (row-major, row 0 on top).
@@ -49,6 +51,10 @@ pub struct GuideBuffers<'a> {
     /// Analytic unshadowed light `U` (noise-free): edge guide, and the detector
     /// of light changes for the history.
     pub u: &'a [Vec3],
+    /// Specular lobe per pixel (see [`Lobe`]): taps whose mirror directions
+    /// lie lobe widths apart are not averaged. Empty: no lobe guide (every
+    /// pixel treated as diffuse).
+    pub lobe: &'a [Lobe],
 }
 
 /// Knobs of the denoiser. `Default` gives the tuned values.
@@ -89,6 +95,9 @@ pub struct DenoiseSettings {
     pub normal_power: f32,
     /// `U` edge-stopping: relative luminance difference of `U`.
     pub sigma_u: f32,
+    /// Lobe edge-stopping: weight falls with this times the squared
+    /// separation of the mirror directions in lobe widths (0: off).
+    pub lobe_scale: f32,
     /// Skip tiles whose ratio is uniformly 0 or 1 (and whose neighbours are
     /// uniform too).
     pub skip_tiles: bool,
@@ -111,6 +120,7 @@ impl Default for DenoiseSettings {
             sigma_plane: 0.1,
             normal_power: 64.0,
             sigma_u: 0.3,
+            lobe_scale: 10.0,
             skip_tiles: true,
         }
     }
@@ -237,9 +247,10 @@ impl Denoiser {
                 && guide.prev_pixel.len() == n
                 && guide.prev_valid.len() == n
                 && guide.u.len() == n
+                && (guide.lobe.is_empty() || guide.lobe.len() == n)
                 && un.len() == n
                 && sn.len() == n,
-            "denoise: every buffer must hold width * height pixels"
+            "denoise: every buffer must hold width * height pixels (the lobe guide may be empty)"
         );
         if guide.width != self.width || guide.height != self.height {
             *self = Denoiser::new(guide.width, guide.height);
