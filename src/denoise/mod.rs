@@ -13,8 +13,10 @@
 //!    spatial moments while the history is short) sets how many à-trous levels
 //!    the pixel needs: clean pixels (long history, constant ratio) get none.
 //! 4. [`spatial`]: edge-aware à-trous (3x3 taps, step doubling per level),
-//!    weights from plane distance, normal, `U` luminance and the ratio, computed
-//!    once per tap and applied to both signals.
+//!    weights from plane distance, normal, `U` luminance, the ratio and the
+//!    specular lobe ([`lobe`]: a near-mirror's sharp reflected shadow is not
+//!    averaged with its neighbours'), computed once per tap and applied to
+//!    both signals.
 //!
 //! Depends only on `glam` and `rayon`; all buffers are allocated on the first
 //! frame (or a resize) and reused afterwards.
