@@ -14,7 +14,7 @@
 //!    the pixel needs: clean pixels (long history, constant ratio) get none.
 //! 4. [`spatial`]: edge-aware à-trous (3x3 taps, step doubling per level),
 //!    weights from plane distance, normal, `U` luminance, the ratio and the
-//!    specular lobe ([`lobe`]: a near-mirror's sharp reflected shadow is not
+//!    specular lobe (`lobe`: a near-mirror's sharp reflected shadow is not
 //!    averaged with its neighbours'), computed once per tap and applied to
 //!    both signals.
 //!
