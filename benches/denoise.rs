@@ -36,6 +36,7 @@ impl Data {
             prev_pixel: &self.prev_pixel,
             prev_valid: &self.prev_valid,
             u: &self.u,
+            lobe: &[],
         }
     }
 }

@@ -215,19 +215,32 @@ fn after_16_frames_the_denoiser_leaves_4x_less_error_on_ratio_than_on_stochastic
     );
 }
 
-/// On shadow-plane the 4x is NOT met (1.7x when last measured): on the
-/// glossy and near-mirror strips the ratio has sharp features that the spatial
-/// filter blurs (see the README's Denoiser section). What holds, and is kept
-/// from regressing, is that the denoised ratio still beats denoised stochastic
-/// there by a clear margin.
+/// On shadow-plane the 4x is NOT met (3.1x when last measured, 1.7x
+/// before the specular lobe guide): the near-mirror strip's reflected bar
+/// shadow is sharper than a pixel, so it is left to the temporal average
+/// alone, and the glossy strip trades blur for noise (see the README's
+/// Denoiser section). What holds is kept from regressing.
 #[test]
-fn after_16_frames_the_denoised_ratio_has_less_error_than_stochastic_on_shadow_plane() {
+fn after_16_frames_the_denoised_ratio_has_2_5x_less_error_than_stochastic_on_shadow_plane() {
     let e = sixteen_frames("shadow-plane.toml", (160, 90));
     assert!(
-        e.stochastic_vs_converged > 1.5 * e.ratio_vs_converged,
+        e.stochastic_vs_converged > 2.5 * e.ratio_vs_converged,
         "ratio {} vs stochastic {}",
         e.ratio_vs_converged,
         e.stochastic_vs_converged
+    );
+}
+
+/// The sharp shadow seen in the glossy and near-mirror strips is not blurred
+/// by the spatial levels (the lobe guide): 2.4e-3 when last measured, 3.2e-3
+/// without the guide.
+#[test]
+fn after_16_frames_the_denoised_ratio_is_within_2_8e_3_of_its_converged_value_on_shadow_plane() {
+    let e = sixteen_frames("shadow-plane.toml", (160, 90));
+    assert!(
+        e.ratio_vs_converged < 2.8e-3,
+        "ratio relMSE vs converged {}",
+        e.ratio_vs_converged
     );
 }
 

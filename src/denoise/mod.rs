@@ -13,13 +13,16 @@
 //!    spatial moments while the history is short) sets how many à-trous levels
 //!    the pixel needs: clean pixels (long history, constant ratio) get none.
 //! 4. [`spatial`]: edge-aware à-trous (3x3 taps, step doubling per level),
-//!    weights from plane distance, normal, `U` luminance and the ratio, computed
-//!    once per tap and applied to both signals.
+//!    weights from plane distance, normal, `U` luminance, the ratio and the
+//!    specular lobe (`lobe`: a near-mirror's sharp reflected shadow is not
+//!    averaged with its neighbours'), computed once per tap and applied to
+//!    both signals.
 //!
 //! Depends only on `glam` and `rayon`; all buffers are allocated on the first
 //! frame (or a resize) and reused afterwards.
 
 mod history;
+mod lobe;
 mod noise;
 mod spatial;
 mod temporal;
@@ -28,6 +31,7 @@ mod tiles;
 use glam::{Vec2, Vec3};
 use std::time::Instant;
 
+pub use lobe::Lobe;
 pub use tiles::TILE;
 
 /// Per-pixel guides the renderer fills each frame (row-major, row 0 on top).
@@ -49,6 +53,10 @@ pub struct GuideBuffers<'a> {
     /// Analytic unshadowed light `U` (noise-free): edge guide, and the detector
     /// of light changes for the history.
     pub u: &'a [Vec3],
+    /// Specular lobe per pixel (see [`Lobe`]): taps whose mirror directions
+    /// lie lobe widths apart are not averaged. Empty: no lobe guide (every
+    /// pixel treated as diffuse).
+    pub lobe: &'a [Lobe],
 }
 
 /// Knobs of the denoiser. `Default` gives the tuned values.
@@ -89,6 +97,9 @@ pub struct DenoiseSettings {
     pub normal_power: f32,
     /// `U` edge-stopping: relative luminance difference of `U`.
     pub sigma_u: f32,
+    /// Lobe edge-stopping: weight falls with this times the squared
+    /// separation of the mirror directions in lobe widths (0: off).
+    pub lobe_scale: f32,
     /// Skip tiles whose ratio is uniformly 0 or 1 (and whose neighbours are
     /// uniform too).
     pub skip_tiles: bool,
@@ -111,6 +122,7 @@ impl Default for DenoiseSettings {
             sigma_plane: 0.1,
             normal_power: 64.0,
             sigma_u: 0.3,
+            lobe_scale: 10.0,
             skip_tiles: true,
         }
     }
@@ -237,9 +249,10 @@ impl Denoiser {
                 && guide.prev_pixel.len() == n
                 && guide.prev_valid.len() == n
                 && guide.u.len() == n
+                && (guide.lobe.is_empty() || guide.lobe.len() == n)
                 && un.len() == n
                 && sn.len() == n,
-            "denoise: every buffer must hold width * height pixels"
+            "denoise: every buffer must hold width * height pixels (the lobe guide may be empty)"
         );
         if guide.width != self.width || guide.height != self.height {
             *self = Denoiser::new(guide.width, guide.height);

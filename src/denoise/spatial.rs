@@ -13,7 +13,7 @@
 
 use super::history::History;
 use super::tiles::{TILE, Tiles};
-use super::{DenoiseSettings, ratio};
+use super::{DenoiseSettings, Lobe, ratio};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -30,7 +30,7 @@ fn falloff(e: f32) -> f32 {
     t4 * t4
 }
 
-/// What one tap needs of a pixel's guides, packed (28 bytes): the levels are
+/// What one tap needs of a pixel's guides, packed (44 bytes): the levels are
 /// bound by memory traffic, and three separate arrays meant three streams
 /// per tap.
 #[derive(Clone, Copy, Debug, Default)]
@@ -39,6 +39,7 @@ pub(crate) struct Guide {
     pub normal: Vec3,
     /// Luminance of `U`; negative where there is no surface.
     pub lu: f32,
+    pub lobe: Lobe,
 }
 
 /// Per-frame inputs of the filter besides the signals.
@@ -95,6 +96,7 @@ pub(crate) fn filter(
         normal_power: s.normal_power,
         inv_u: 1.0 / s.sigma_u.max(1e-6),
         sigma_ratio: s.sigma_ratio,
+        lobe_scale: s.lobe_scale,
     };
     let (mut out, mut scratch) = (out, scratch);
     if max_level >= 2 {
@@ -137,6 +139,7 @@ struct Ctx<'a> {
     normal_power: f32,
     inv_u: f32,
     sigma_ratio: f32,
+    lobe_scale: f32,
 }
 
 impl Ctx<'_> {
@@ -256,7 +259,9 @@ impl Ctx<'_> {
                     0.0
                 };
                 let e_r = (rp - src.ratio[j]).abs() * inv_sig;
-                let wt = hx * hy * falloff(e_plane + e_normal + e_u + e_r);
+                // Sharp shadows seen through a narrow specular lobe.
+                let e_lobe = p.lobe.separation2(&q.lobe) * self.lobe_scale;
+                let wt = hx * hy * falloff(e_plane + e_normal + e_u + e_r + e_lobe);
                 if wt > 0.0 {
                     su += src.un[j] * wt;
                     ss += src.sn[j] * wt;

@@ -132,7 +132,12 @@ pub(crate) fn accumulate(
                     m2,
                     len,
                 };
-                gd[x] = Guide { pos, normal, lu };
+                gd[x] = Guide {
+                    pos,
+                    normal,
+                    lu,
+                    lobe: guide.lobe.get(i).copied().unwrap_or_default(),
+                };
                 ar[x] = ratio(acc_u, acc_s);
                 raw[x] = r;
                 class[x / TILE] &= tiles::pixel_class(acc_u, acc_s);

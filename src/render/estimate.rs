@@ -16,7 +16,7 @@ use crate::sampling::brdf_sample::{brdf_pdf_local, sample_brdf, spec_lobe_probab
 use crate::sampling::light::{LightSampler, sample_light_area_uniform};
 use crate::sampling::sequence::{sample_1d, sample_2d};
 use crate::shading::brdf::{Frame, alpha_from_roughness, eval_local};
-use crate::shading::{SurfacePoint, unshadowed_prepared};
+use crate::shading::{SurfacePoint, unshadowed_lobes_prepared};
 use glam::Vec3;
 
 pub fn mode_available(_mode: Mode) -> bool {
@@ -54,17 +54,26 @@ pub fn surface_point(g: &GSample) -> SurfacePoint {
 /// Zero off surfaces.
 #[inline]
 pub fn analytic_u(world: &World, g: &GSample, per_light: &mut [Vec3]) -> Vec3 {
+    analytic_u_lobes(world, g, per_light).0
+}
+
+/// `analytic_u`, and the specular lobe's part of the sum (the denoiser's
+/// lobe guide weighs the specular lobe by its share of `U`).
+#[inline]
+pub fn analytic_u_lobes(world: &World, g: &GSample, per_light: &mut [Vec3]) -> (Vec3, Vec3) {
     if g.kind != PixelKind::Surface {
         per_light.fill(Vec3::ZERO);
-        return Vec3::ZERO;
+        return (Vec3::ZERO, Vec3::ZERO);
     }
     let sp = surface_point(g);
-    let mut total = Vec3::ZERO;
+    let (mut total, mut specular) = (Vec3::ZERO, Vec3::ZERO);
     for (u, light) in per_light.iter_mut().zip(&world.shading_lights) {
-        *u = unshadowed_prepared(&sp, light);
+        let (d, s) = unshadowed_lobes_prepared(&sp, light);
+        *u = d + s;
         total += *u;
+        specular += s;
     }
-    total
+    (total, specular)
 }
 
 /// Which light a sample goes to: in proportion to the luminance of the

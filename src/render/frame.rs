@@ -2,14 +2,15 @@
 //! per band of rows over rayon, then composite. Frame state that outlives a
 //! frame (previous camera, reference accumulation) lives here too.
 
-use super::estimate::{Estimator, analytic_u, draw_samples, ratio};
+use super::estimate::{Estimator, analytic_u_lobes, draw_samples, ratio};
 use super::gbuffer::{GSample, PixelKind};
 use super::mode::Mode;
 use super::primary::{PACKET_H, PixelOffset, trace_rows};
 use super::shadow::{PacketWidth, ShadowBatch};
 use super::world::World;
-use crate::denoise::{DenoiseSettings, Denoiser, GuideBuffers};
+use crate::denoise::{DenoiseSettings, Denoiser, GuideBuffers, Lobe, luminance};
 use crate::scene::{Camera, CameraFrame};
+use crate::shading::brdf::alpha_from_roughness;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -79,12 +80,20 @@ impl BandJob<'_, '_> {
         let t = PhaseClock::add(&clock.primary, t);
         let lights = world.scene.lights.len();
         scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
+        scratch.spec_share.resize(gbuf.len(), 0.0);
         for (k, (g, u)) in gbuf.iter().zip(u.iter_mut()).enumerate() {
-            *u = analytic_u(
+            let (total, specular) = analytic_u_lobes(
                 world,
                 g,
                 &mut scratch.per_light[k * lights..(k + 1) * lights],
             );
+            *u = total;
+            let lt = luminance(total);
+            scratch.spec_share[k] = if lt > 0.0 {
+                luminance(specular) / lt
+            } else {
+                0.0
+            };
         }
         let t = PhaseClock::add(&clock.u, t);
         un.fill(Vec3::ZERO);
@@ -123,6 +132,8 @@ impl BandJob<'_, '_> {
 struct BandScratch {
     /// Analytic `U` of each light at each pixel of the band.
     per_light: Vec<Vec3>,
+    /// Share of the specular lobe in each pixel's `U` (luminance).
+    spec_share: Vec<f32>,
     batch: ShadowBatch,
 }
 
@@ -310,7 +321,7 @@ impl Frame {
                     }
                 } else {
                     for (k, g) in band.gbuf.iter().enumerate() {
-                        band.guide.set(k, g);
+                        band.guide.set(k, g, scratch.spec_share[k]);
                     }
                     if settings.mode == Mode::Stochastic {
                         // The full Monte Carlo signal is filtered as `S_N` over the
@@ -334,13 +345,15 @@ impl Frame {
             .zip(g.depth.chunks_mut(n))
             .zip(g.prev_pixel.chunks_mut(n))
             .zip(g.prev_valid.chunks_mut(n))
+            .zip(g.lobe.chunks_mut(n))
             .map(
-                |((((position, normal), depth), prev_pixel), prev_valid)| GuideMut {
+                |(((((position, normal), depth), prev_pixel), prev_valid), lobe)| GuideMut {
                     position,
                     normal,
                     depth,
                     prev_pixel,
                     prev_valid,
+                    lobe,
                 },
             );
         self.gbuf
@@ -372,6 +385,7 @@ impl Frame {
             prev_pixel: &self.guide.prev_pixel,
             prev_valid: &self.guide.prev_valid,
             u: &self.u,
+            lobe: &self.guide.lobe,
         };
         self.denoiser.denoise(
             &guide,
@@ -471,6 +485,7 @@ struct Guides {
     depth: Vec<f32>,
     prev_pixel: Vec<Vec2>,
     prev_valid: Vec<bool>,
+    lobe: Vec<Lobe>,
 }
 
 impl Guides {
@@ -481,6 +496,7 @@ impl Guides {
             depth: vec![0.0; n],
             prev_pixel: vec![Vec2::ZERO; n],
             prev_valid: vec![false; n],
+            lobe: vec![Lobe::default(); n],
         }
     }
 }
@@ -491,18 +507,24 @@ struct GuideMut<'a> {
     depth: &'a mut [f32],
     prev_pixel: &'a mut [Vec2],
     prev_valid: &'a mut [bool],
+    lobe: &'a mut [Lobe],
 }
 
 impl GuideMut<'_> {
     /// Only receiver surfaces are denoised; lights and misses pass through.
     #[inline]
-    fn set(&mut self, k: usize, g: &GSample) {
+    fn set(&mut self, k: usize, g: &GSample, spec_share: f32) {
         let surface = g.kind == PixelKind::Surface;
         self.position[k] = g.position;
         self.normal[k] = if surface { g.ng } else { Vec3::ZERO };
         self.depth[k] = if surface { g.depth } else { 0.0 };
         self.prev_pixel[k] = g.prev_pixel;
         self.prev_valid[k] = g.prev_valid;
+        self.lobe[k] = if surface {
+            Lobe::new(g.ng, g.wo, alpha_from_roughness(g.roughness), spec_share)
+        } else {
+            Lobe::default()
+        };
     }
 }
 

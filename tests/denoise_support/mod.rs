@@ -110,6 +110,7 @@ impl Frame {
             prev_pixel: &self.prev_pixel,
             prev_valid: &self.prev_valid,
             u: &self.u,
+            lobe: &[],
         }
     }
 }
