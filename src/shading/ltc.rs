@@ -198,14 +198,7 @@ impl LtcTable {
     /// treated as grazing).
     #[inline]
     pub fn lookup(&self, roughness: f32, cos_view: f32) -> LtcCell {
-        let n = (self.size - 1) as f32;
-        let x = roughness.clamp(0.0, 1.0) * n;
-        let y = (1.0 - cos_view.clamp(0.0, 1.0)).sqrt() * n;
-        let (i0, j0) = (
-            (x as usize).min(self.size - 2),
-            (y as usize).min(self.size - 2),
-        );
-        let (fx, fy) = (x - i0 as f32, y - j0 as f32);
+        let (i0, j0, fx, fy) = cell_coords(self.size, roughness, cos_view);
         let a = self.cell(i0, j0).to_array();
         let b = self.cell(i0 + 1, j0).to_array();
         let c = self.cell(i0, j0 + 1).to_array();
@@ -222,6 +215,17 @@ impl LtcTable {
 
 /// The fitted 64x64 table, committed under `data/` and compiled in.
 pub static EMBEDDED_LTC_64: &[u8] = include_bytes!("../../data/ltc_64.bin");
+
+/// The table cell below (roughness, view) and the bilinear weights inside it,
+/// for a table of `size` cells per axis (rows by sqrt(1 - cos_view)).
+#[inline]
+fn cell_coords(size: usize, roughness: f32, cos_view: f32) -> (usize, usize, f32, f32) {
+    let n = (size - 1) as f32;
+    let x = roughness.clamp(0.0, 1.0) * n;
+    let y = (1.0 - cos_view.clamp(0.0, 1.0)).sqrt() * n;
+    let (i0, j0) = ((x as usize).min(size - 2), (y as usize).min(size - 2));
+    (i0, j0, x - i0 as f32, y - j0 as f32)
+}
 
 /// The embedded table, parsed once.
 pub fn table() -> &'static LtcTable {
@@ -266,14 +270,7 @@ impl PackedLtc {
     /// `LtcTable::lookup`, on the packed cells.
     #[inline]
     pub fn lookup(&self, roughness: f32, cos_view: f32) -> LtcCell {
-        let n = (self.size - 1) as f32;
-        let x = roughness.clamp(0.0, 1.0) * n;
-        let y = (1.0 - cos_view.clamp(0.0, 1.0)).sqrt() * n;
-        let (i0, j0) = (
-            (x as usize).min(self.size - 2),
-            (y as usize).min(self.size - 2),
-        );
-        let (fx, fy) = (x - i0 as f32, y - j0 as f32);
+        let (i0, j0, fx, fy) = cell_coords(self.size, roughness, cos_view);
         let k = j0 * self.size + i0;
         let (a, b) = (&self.cells[k].0, &self.cells[k + 1].0);
         let (c, d) = (
