@@ -9,7 +9,7 @@ use glam::Vec3;
 use penumbra::denoise::luminance;
 use penumbra::embree::{self, Device};
 use penumbra::render::{Frame, Mode, PixelKind, RenderSettings, World};
-use penumbra::report::stats::{interior, median, rel_mse, rel_mse_masked};
+use penumbra::report::stats::{bilinear_taps, interior, median, rel_mse, rel_mse_masked};
 use penumbra::scene::{Camera, Scene};
 use std::path::Path;
 use std::time::Instant;
@@ -152,19 +152,7 @@ fn reproject(f: &Frame, k: usize, pr: &[Option<f32>], pp: &[Vec3]) -> Option<f32
         return None;
     }
     let (w, h) = (f.width as usize, f.height as usize);
-    let q = g.prev_pixel - 0.5;
-    let (x0, y0) = (q.x.floor(), q.y.floor());
-    if x0 < 0.0 || y0 < 0.0 || x0 as usize + 1 >= w || y0 as usize + 1 >= h {
-        return None;
-    }
-    let (fx, fy) = (q.x - x0, q.y - y0);
-    let j = y0 as usize * w + x0 as usize;
-    let taps = [
-        (j, (1.0 - fx) * (1.0 - fy)),
-        (j + 1, fx * (1.0 - fy)),
-        (j + w, (1.0 - fx) * fy),
-        (j + w + 1, fx * fy),
-    ];
+    let taps = bilinear_taps(g.prev_pixel, w, h)?;
     let mut sum = 0.0;
     for (t, wt) in taps {
         if pp[t].distance(g.position) >= 0.05 * g.depth {

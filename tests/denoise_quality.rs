@@ -13,7 +13,7 @@ use glam::{Vec2, Vec3};
 use penumbra::denoise::luminance;
 use penumbra::embree::{self, Device};
 use penumbra::render::{Frame, Mode, PixelKind, RenderSettings, World};
-use penumbra::report::stats::rel_mse_masked;
+use penumbra::report::stats::{bilinear_taps, rel_mse_masked};
 use penumbra::scene::{Camera, Scene};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -432,19 +432,9 @@ fn penumbra_flicker(scene: &Scene, cams: &[Camera]) -> (f64, usize) {
                 if !g.prev_valid {
                     continue;
                 }
-                let q = g.prev_pixel - 0.5;
-                let (x0, y0) = (q.x.floor(), q.y.floor());
-                if x0 < 0.0 || y0 < 0.0 || x0 + 1.0 >= size.0 as f32 || y0 + 1.0 >= size.1 as f32 {
+                let Some(taps) = bilinear_taps(g.prev_pixel, w, size.1 as usize) else {
                     continue;
-                }
-                let (fx, fy) = (q.x - x0, q.y - y0);
-                let j = y0 as usize * w + x0 as usize;
-                let taps = [
-                    (j, (1.0 - fx) * (1.0 - fy)),
-                    (j + 1, fx * (1.0 - fy)),
-                    (j + w, (1.0 - fx) * fy),
-                    (j + w + 1, fx * fy),
-                ];
+                };
                 let same_surface = taps
                     .iter()
                     .all(|&(t, _)| pr[t].is_some() && pp[t].distance(g.position) < 0.05 * g.depth);

@@ -128,3 +128,23 @@ pub fn interpolate_log_log(points: &[(f64, f64)], x: f64) -> Option<f64> {
         (y0 + (y1 - y0) * (x.ln() - x0) / (x1 - x0)).exp()
     })
 }
+
+/// The 2x2 pixels around `pixel` (continuous coordinates, pixel centres at
+/// +0.5) with their bilinear weights, as (index, weight) into a row-major
+/// `width` x `height` image; `None` unless all four are on screen. Measurements
+/// that follow a surface point across frames use it (flicker, reprojection).
+pub fn bilinear_taps(pixel: glam::Vec2, width: usize, height: usize) -> Option<[(usize, f32); 4]> {
+    let q = pixel - 0.5;
+    let (x0, y0) = (q.x.floor(), q.y.floor());
+    if x0 < 0.0 || y0 < 0.0 || x0 + 1.0 >= width as f32 || y0 + 1.0 >= height as f32 {
+        return None;
+    }
+    let (fx, fy) = (q.x - x0, q.y - y0);
+    let j = y0 as usize * width + x0 as usize;
+    Some([
+        (j, (1.0 - fx) * (1.0 - fy)),
+        (j + 1, fx * (1.0 - fy)),
+        (j + width, (1.0 - fx) * fy),
+        (j + width + 1, fx * fy),
+    ])
+}
