@@ -15,7 +15,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Bumped whenever the reference's pixels would change for the same inputs.
-pub const FORMAT_VERSION: u32 = 1;
+/// 2: no Schlick grazing term on materials with `specular = [0, 0, 0]`.
+pub const FORMAT_VERSION: u32 = 2;
 /// Seed of the reference's samples (the measured modes use seed 0).
 pub const SEED: u32 = 0x5eed;
 const MAGIC: &[u8; 8] = b"PNBRREF1";

@@ -117,10 +117,17 @@ pub fn spec_local(alpha: f32, wi: Vec3, wo: Vec3) -> (f32, f32) {
 }
 
 /// Full BRDF value per channel in the local frame (normal = +Z).
+/// `specular = [0, 0, 0]` means no specular lobe at all (SCENE_FORMAT.md):
+/// Schlick's grazing term `(1 - wo.h)^5` must not bring one back, or every
+/// Monte Carlo answer on such a surface (stochastic, reference) would gain
+/// a grazing highlight that `U` and an independent renderer do not have.
 #[inline]
 pub fn eval_local(wi: Vec3, wo: Vec3, diffuse: Vec3, specular: Vec3, roughness: f32) -> Vec3 {
     if wi.z <= 0.0 {
         return Vec3::ZERO;
+    }
+    if specular.max_element() <= 0.0 {
+        return diffuse * (1.0 / PI);
     }
     let (s, cos_oh) = spec_local(alpha_from_roughness(roughness), wi, wo);
     diffuse * (1.0 / PI) + schlick(specular, cos_oh) * s
