@@ -102,7 +102,7 @@ fn nodes(poly: &[DVec3], out: &mut [(DVec3, f64); MAX_VERTICES]) -> usize {
         c += *dst;
     }
     let cl = c.length();
-    if !(cl > 1e-300) {
+    if cl.is_nan() || cl <= 1e-300 {
         return 0;
     }
     let c = c / cl;
