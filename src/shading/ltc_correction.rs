@@ -112,11 +112,8 @@ impl ExactLobes {
         let ci = w.z.max(MIN_COS);
         let num = self.a2 * l2 * l2 * w.z;
         let den = self.k * q * q * (self.one_lo + lambda) * ci;
-        let a = if h.z > 0.0 && den > 0.0 {
-            num / den
-        } else {
-            0.0
-        };
+        // h = 0 only with w and wo both grazing, where num = 0 too.
+        let a = num / den.max(1e-30);
         let cos_oh = (self.wo.dot(w) + 1.0) / l2.max(1e-30).sqrt();
         let m = 1.0 - cos_oh.clamp(0.0, 1.0);
         let m2 = m * m;
@@ -125,16 +122,56 @@ impl ExactLobes {
 }
 
 /// `atan2(y, x)` for `y >= 0`, from `atan(r) ~ r / (1 + 0.28086 r²)` on
-/// |r| <= 1 (max error 0.005 rad).
+/// |r| <= 1 (max error 0.005 rad); branch-free (selects), so a loop over
+/// nodes vectorises.
 #[inline(always)]
 fn atan2_pos(y: f32, x: f32) -> f32 {
-    let at = |r: f32| r / (1.0 + 0.28086 * r * r);
-    if x >= y {
-        at(y / x)
-    } else if x >= -y {
-        FRAC_PI_2 - at(x / y)
+    // Octant: |x| >= y reads atan(y / x) (+ π for x < 0), otherwise
+    // π/2 + atan(-x / y).
+    let steep = x.abs() < y;
+    let (num, den) = if steep { (-x, y) } else { (y, x) };
+    let base = if steep {
+        FRAC_PI_2
+    } else if x < 0.0 {
+        PI
     } else {
-        PI + at(y / x)
+        0.0
+    };
+    let r = if den != 0.0 { num / den } else { 0.0 };
+    base + r / (1.0 + 0.28086 * r * r)
+}
+
+/// Nodes evaluated together (one SIMD register of `f32`).
+const LANES: usize = 4;
+
+/// Per-lane sums `wt f_A, wt f_B, wt ltc_A, wt ltc_B` of the nodes of one
+/// chunk: the fan triangles `(c, a[j], b[j])`, lanes with `live[j] = false`
+/// weighing 0. Straight-line per lane, so the loop runs as SIMD.
+#[inline(always)]
+fn chunk(
+    c: Vec3,
+    a: &[[f32; LANES]; 3],
+    b: &[[f32; LANES]; 3],
+    live: &[bool; LANES],
+    (exact, ma, mb): (&ExactLobes, &LobeModel, &LobeModel),
+    sums: &mut [[f32; LANES]; 4],
+) {
+    for j in 0..LANES {
+        let a = Vec3::new(a[0][j], a[1][j], a[2][j]);
+        let b = Vec3::new(b[0][j], b[1][j], b[2][j]);
+        // Solid angle of the spherical triangle (c, a, b) (Van Oosterom and
+        // Strackee's formula).
+        let num = c.dot(a.cross(b)).abs();
+        let den = 1.0 + c.dot(a) + a.dot(b) + b.dot(c);
+        let omega = 2.0 * atan2_pos(num, den);
+        let m = c + a + b;
+        let w = m * m.length_squared().max(1e-30).sqrt().recip();
+        let wt = if live[j] && w.z > 0.0 { omega } else { 0.0 };
+        let (ea, eb) = exact.eval(w);
+        sums[0][j] += wt * ea;
+        sums[1][j] += wt * eb;
+        sums[2][j] += wt * ma.value(w);
+        sums[3][j] += wt * mb.value(w);
     }
 }
 
@@ -182,24 +219,24 @@ pub fn lobe_factors(
         c += *dst;
     }
     let c = c * c.length_squared().max(1e-30).sqrt().recip();
-    // Cubatures of the exact lobes and of their models.
-    let (mut fa, mut fb, mut ga, mut gb) = (0.0, 0.0, 0.0, 0.0);
-    for i in 0..n {
-        let (a, b) = (u[i], u[if i + 1 == n { 0 } else { i + 1 }]);
-        // Solid angle of the spherical triangle (c, a, b) (Van Oosterom and
-        // Strackee's formula).
-        let num = c.dot(a.cross(b)).abs();
-        let den = 1.0 + c.dot(a) + a.dot(b) + b.dot(c);
-        let omega = 2.0 * atan2_pos(num, den);
-        let m = c + a + b;
-        let w = m * m.length_squared().max(1e-30).sqrt().recip();
-        let wt = if w.z > 0.0 && omega > 0.0 { omega } else { 0.0 };
-        let (ea, eb) = exact.eval(w);
-        fa += wt * ea;
-        fb += wt * eb;
-        ga += wt * ma.value(w);
-        gb += wt * mb.value(w);
+    // Fan triangle i is (c, u[i], u[i + 1]); nodes in chunks of LANES.
+    let mut sums = [[0.0f32; LANES]; 4];
+    for start in (0..n).step_by(LANES) {
+        let mut a = [[0.0f32; LANES]; 3];
+        let mut b = [[0.0f32; LANES]; 3];
+        let mut live = [false; LANES];
+        for j in 0..LANES.min(n - start) {
+            let i = start + j;
+            let (p, q) = (u[i], u[if i + 1 == n { 0 } else { i + 1 }]);
+            for (k, (pk, qk)) in [(p.x, q.x), (p.y, q.y), (p.z, q.z)].into_iter().enumerate() {
+                a[k][j] = pk;
+                b[k][j] = qk;
+            }
+            live[j] = true;
+        }
+        chunk(c, &a, &b, &live, (&exact, &ma, &mb), &mut sums);
     }
+    let [fa, fb, ga, gb] = sums.map(|s| s.iter().sum::<f32>());
     (
         factor(fa, ga, share_a, ma.mag),
         factor(fb, gb, share_b, mb.mag),
