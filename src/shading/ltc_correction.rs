@@ -83,9 +83,9 @@ impl LobeModel {
 struct ExactLobes {
     wo: Vec3,
     a2: f32,
-    /// `1 + Lambda(wo)`.
-    one_lo: f32,
-    /// `4 π max(wo.z, MIN_COS)`.
+    /// `2 (1 + Lambda(wo)) - 1`.
+    lo2: f32,
+    /// `2 π max(wo.z, MIN_COS)`.
     k: f32,
 }
 
@@ -94,27 +94,31 @@ impl ExactLobes {
         ExactLobes {
             wo,
             a2: alpha * alpha,
-            one_lo: 1.0 + super::brdf::smith_lambda(alpha, wo),
-            k: 4.0 * PI * wo.z.abs().max(MIN_COS),
+            lo2: 1.0 + 2.0 * super::brdf::smith_lambda(alpha, wo),
+            k: 2.0 * PI * wo.z.abs().max(MIN_COS),
         }
     }
 
-    /// `(A, B)` at `w` (w.z >= 0). With `h = w + wo` unnormalised:
-    /// `D = a² |h|^4 / (π q²)`, `q = hx² + hy² + a² hz²`; `Lambda(w) =
-    /// s / (2 (sqrt(1 + s) + 1))`, `s = a² (wx² + wy²) / wz²`.
+    /// `(A, B)` at a unit `w` (w.z >= 0), with one division. With
+    /// `h = w + wo` unnormalised, `D = a² |h|^4 / (π q²)`,
+    /// `q = hx² + hy² + a² hz²`; with `c = max(wz, MIN_COS)` (as `brdf`
+    /// clamps it) and `t = sqrt(c² + a² (wx² + wy²))`, `1 + Lambda(w) =
+    /// (c + t) / (2 c)`, so `A = D G2 wz / (4 c cos_o) =
+    /// a² |h|^4 wz / (2 π cos_o q² (c lo2 + t))`; `B = A (1 - wo.h/|h|)^5`.
     #[inline(always)]
     fn eval(&self, w: Vec3) -> (f32, f32) {
         let h = w + self.wo;
-        let l2 = h.length_squared();
+        let l2 = h.length_squared().max(1e-30);
         let q = h.x * h.x + h.y * h.y + self.a2 * h.z * h.z;
-        let s = self.a2 * (w.x * w.x + w.y * w.y) / (w.z * w.z).max(MIN_COS * MIN_COS);
-        let lambda = s / (2.0 * ((1.0 + s).sqrt() + 1.0));
-        let ci = w.z.max(MIN_COS);
+        let c = w.z.max(MIN_COS);
+        let t = (c * c + self.a2 * (w.x * w.x + w.y * w.y)).sqrt();
         let num = self.a2 * l2 * l2 * w.z;
-        let den = self.k * q * q * (self.one_lo + lambda) * ci;
         // h = 0 only with w and wo both grazing, where num = 0 too.
-        let a = num / den.max(1e-30);
-        let cos_oh = (self.wo.dot(w) + 1.0) / l2.max(1e-30).sqrt();
+        let den = (self.k * q * q * (c * self.lo2 + t)).max(1e-30);
+        let len = l2.sqrt();
+        let inv = 1.0 / (den * len);
+        let a = num * len * inv;
+        let cos_oh = (self.wo.dot(w) + 1.0) * den * inv;
         let m = 1.0 - cos_oh.clamp(0.0, 1.0);
         let m2 = m * m;
         (a, a * m2 * m2 * m)
@@ -122,8 +126,9 @@ impl ExactLobes {
 }
 
 /// `atan2(y, x)` for `y >= 0`, from `atan(r) ~ r / (1 + 0.28086 r²)` on
-/// |r| <= 1 (max error 0.005 rad); branch-free (selects), so a loop over
-/// nodes vectorises.
+/// |r| <= 1 (max error 0.005 rad), as `n d / (d² + 0.28086 n²)` for
+/// `r = n / d`: one division; branch-free (selects), so a loop over nodes
+/// vectorises.
 #[inline(always)]
 fn atan2_pos(y: f32, x: f32) -> f32 {
     // Octant: |x| >= y reads atan(y / x) (+ π for x < 0), otherwise
@@ -137,8 +142,7 @@ fn atan2_pos(y: f32, x: f32) -> f32 {
     } else {
         0.0
     };
-    let r = if den != 0.0 { num / den } else { 0.0 };
-    base + r / (1.0 + 0.28086 * r * r)
+    base + num * den / (den * den + 0.28086 * num * num).max(1e-30)
 }
 
 /// Nodes evaluated together (one SIMD register of `f32`).
