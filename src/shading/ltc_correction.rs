@@ -57,14 +57,32 @@ struct LobeModel {
 }
 
 impl LobeModel {
-    fn new(m: [f32; 4], mag: f32, hmass: f32, mix: f32) -> LobeModel {
-        let det = (m[0] * m[3] - m[1] * m[2]).abs();
-        LobeModel {
-            m,
-            kd: mag * (1.0 - mix) * det / (PI * hmass),
-            kc: mag * mix / PI,
-            mag,
-        }
+    /// The two lobes of a cell, `(A, B)`, with one division between them.
+    fn pair(cell: &LtcCell) -> (LobeModel, LobeModel) {
+        let inv = 1.0 / (PI * cell.hmass * cell.fhmass);
+        let lobe = |m: [f32; 4], mag: f32, mix: f32, inv_hmass: f32| {
+            let det = (m[0] * m[3] - m[1] * m[2]).abs();
+            LobeModel {
+                m,
+                kd: mag * (1.0 - mix) * det * inv_hmass,
+                kc: mag * mix * (1.0 / PI),
+                mag,
+            }
+        };
+        (
+            lobe(
+                [cell.m00, cell.m02, cell.m20, cell.m22],
+                cell.mag,
+                cell.mix,
+                inv * cell.fhmass,
+            ),
+            lobe(
+                [cell.f00, cell.f02, cell.f20, cell.f22],
+                cell.fres,
+                cell.fmix,
+                inv * cell.hmass,
+            ),
+        )
     }
 
     #[inline(always)]
@@ -201,25 +219,22 @@ pub fn lobe_factors(
     if n < 3 {
         return (1.0, 1.0);
     }
-    let ma = LobeModel::new(
-        [cell.m00, cell.m02, cell.m20, cell.m22],
-        cell.mag,
-        cell.hmass,
-        cell.mix,
-    );
-    let mb = LobeModel::new(
-        [cell.f00, cell.f02, cell.f20, cell.f22],
-        cell.fres,
-        cell.fhmass,
-        cell.fmix,
-    );
+    let (ma, mb) = LobeModel::pair(cell);
     let exact = ExactLobes::new(wo, alpha);
     // Unit vertices and the centroid direction.
+    // (Lengths first, in a fixed-length loop that runs as SIMD.)
     let mut u = [Vec3::ZERO; MAX_VERTICES];
+    let mut inv = [0.0f32; MAX_VERTICES];
+    for ((dst, l), v) in u.iter_mut().zip(&mut inv).zip(&poly[..n]) {
+        *dst = v.as_vec3();
+        *l = dst.length_squared();
+    }
+    for l in &mut inv {
+        *l = 1.0 / l.max(1e-30).sqrt();
+    }
     let mut c = Vec3::ZERO;
-    for (dst, v) in u.iter_mut().zip(&poly[..n]) {
-        let v = v.as_vec3();
-        *dst = v * v.length_squared().max(1e-30).sqrt().recip();
+    for (dst, l) in u[..n].iter_mut().zip(inv) {
+        *dst *= l;
         c += *dst;
     }
     let c = c * c.length_squared().max(1e-30).sqrt().recip();
@@ -254,8 +269,13 @@ fn factor(qf: f32, qg: f32, share: f32, mag: f32) -> f32 {
     if !(qg > 0.0 && ltc > 0.0 && qf >= 0.0) {
         return 1.0;
     }
-    let r = (qf / qg).min(MAX_RATIO);
-    let trust = (1.0 - (qg / ltc - 1.0).abs() / TRUST).max(0.0);
+    // r = qf / qg and qg / ltc with one division.
+    let inv = 1.0 / (qg * ltc);
+    if !inv.is_finite() {
+        return 1.0;
+    }
+    let r = (qf * ltc * inv).min(MAX_RATIO);
+    let trust = (1.0 - (qg * qg * inv - 1.0).abs() * (1.0 / TRUST)).max(0.0);
     let k = 1.0 + (r - 1.0) * trust * (1.0 - s);
     if k.is_finite() {
         k.clamp(0.0, MAX_RATIO)
