@@ -8,12 +8,11 @@
 //! (scene, width, height, reference spp, output folder, [spp of the bottom
 //! row]). Writes `room-fig-{soft-shadow,stochastic,ratio,reference}.png`
 //! (undenoised, 1 spp except the reference) and `room-figure.png`: the top
-//! row is those four
-//! frames; the bottom row holds `soft-shadow` at `CONVERGED_SPP` (its noise
-//! gone, its bias left), its per-pixel error and the ratio's at the same spp
-//! (log scale, 1e-4 black to 1 white) against the MIS estimator converged at
-//! pixel centres, and the shadowed glossy floor on which tests/seed_claims.rs
-//! compares the two. It prints the relMSE of each frame against `reference`
+//! row is those four frames; the bottom row holds `soft-shadow` at
+//! `CONVERGED_SPP` (its noise gone, its bias left), its per-pixel error and
+//! the ratio's at the same spp (log scale, 1e-4 black to 1 white) against the
+//! MIS estimator converged at pixel centres, and the shadowed glossy floor on
+//! which tests/seed_claims.rs compares the two. It prints the relMSE of each frame against `reference`
 //! and against that pixel-centred truth, over the whole image and over the
 //! shadowed glossy floor.
 
@@ -99,6 +98,7 @@ fn main() -> anyhow::Result<()> {
         penumbra::output::write_png(&file, width, height, &f.color, 0.0)?;
         top.push((format!("{} 1 spp", mode.name()), to_rgb(&f.color)));
     }
+    report(&format!("reference {ref_spp} spp"), &reference);
     let file = out.join("room-fig-reference.png");
     penumbra::output::write_png(&file, width, height, &reference.color, 0.0)?;
     top.push((format!("reference {ref_spp} spp"), to_rgb(&reference.color)));
