@@ -179,15 +179,15 @@ fn soft_shadow_is_wrong_on_the_glossy_floor_of_room_and_ratio_is_not() {
     // `soft-shadow` sample too. Against the first, every pixel-centred mode
     // also carries the box filter's blur of the sharp reflections on the
     // polished floor; the second leaves only the estimators' own error.
-    let reference = render(&scene, &job(Mode::Reference, 2048, 17));
-    let centred = render(&scene, &job(Mode::Stochastic, 2048, 17));
+    let reference = render(&scene, &job(Mode::Reference, 1024, 17));
+    let centred = render(&scene, &job(Mode::Stochastic, 1024, 17));
     // An independent soft-shadow frame says where the light is blocked.
     let mask = shadowed_glossy_floor(&scene, &render(&scene, &job(Mode::SoftShadow, 32, 9)));
     let n = mask.iter().filter(|&&m| m).count();
     let ratio = render(&scene, &job(Mode::Ratio, 256, 5));
     let soft = render(&scene, &job(Mode::SoftShadow, 256, 5));
     let mut factors = Vec::new();
-    for (truth, name) in [(&reference, "reference"), (&centred, "stochastic 2048 spp")] {
+    for (truth, name) in [(&reference, "reference"), (&centred, "stochastic 1024 spp")] {
         let e_ratio = rel_mse_where(&ratio, truth, |k| mask[k]);
         let e_soft = rel_mse_where(&soft, truth, |k| mask[k]);
         println!(
@@ -196,8 +196,11 @@ fn soft_shadow_is_wrong_on_the_glossy_floor_of_room_and_ratio_is_not() {
         );
         factors.push(e_soft / e_ratio);
     }
+    // The figure needs the shadow to fall on the glossy floor in view: 1423
+    // pixels (15 % of the frame) here; the room before issue 4's figure had
+    // 108 (its polished tiles were few and mostly lit), and fails here.
     assert!(n > 500, "only {n} shadowed glossy floor pixels");
-    // Measured 3.9x and 123x (128x72, these seeds).
+    // Measured 3.7x and 72x (128x72, these seeds); soft-shadow = ratio gives 1x.
     assert!(factors[0] > 3.0, "against reference: {}x", factors[0]);
     assert!(factors[1] > 30.0, "against pixel centres: {}x", factors[1]);
 }
