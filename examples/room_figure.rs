@@ -12,7 +12,9 @@
 //! `CONVERGED_SPP` (its noise gone, its bias left), its per-pixel error and
 //! the ratio's at the same spp (log scale, 1e-4 black to 1 white) against the
 //! MIS estimator converged at pixel centres, and the shadowed glossy floor on
-//! which tests/seed_claims.rs compares the two. It prints the relMSE of each frame against `reference`
+//! which tests/seed_claims.rs compares the two; the third row magnifies the
+//! floor below the pedestal 2x in `reference`, `soft-shadow` and `ratio` at
+//! `CONVERGED_SPP`, and `ratio` at 1 spp. It prints the relMSE of each frame against `reference`
 //! and against that pixel-centred truth, over the whole image and over the
 //! shadowed glossy floor.
 
@@ -90,6 +92,7 @@ fn main() -> anyhow::Result<()> {
         );
     };
 
+    let (w, h) = (width as usize, height as usize);
     let mut top = Vec::new();
     for mode in [Mode::SoftShadow, Mode::Stochastic, Mode::Ratio] {
         let f = render(mode, 1, 1);
@@ -103,15 +106,19 @@ fn main() -> anyhow::Result<()> {
     penumbra::output::write_png(&file, width, height, &reference.color, 0.0)?;
     top.push((format!("reference {ref_spp} spp"), to_rgb(&reference.color)));
 
+    // Third row: the floor below the pedestal, magnified 2x.
+    let mut zoomed = vec![("reference, zoom".to_string(), zoom(&top[3].1, w, h))];
     let mut bottom = Vec::new();
     for mode in [Mode::SoftShadow, Mode::Ratio] {
         let f = render(mode, converged_spp, 1);
         report(&format!("{} {converged_spp} spp", mode.name()), &f);
+        let rgb = to_rgb(&f.color);
+        zoomed.push((
+            format!("{} {converged_spp} spp, zoom", mode.name()),
+            zoom(&rgb, w, h),
+        ));
         if mode == Mode::SoftShadow {
-            bottom.push((
-                format!("{} {converged_spp} spp", mode.name()),
-                to_rgb(&f.color),
-            ));
+            bottom.push((format!("{} {converged_spp} spp", mode.name()), rgb));
         }
         bottom.push((
             format!("{} {converged_spp} spp error", mode.name()),
@@ -133,7 +140,9 @@ fn main() -> anyhow::Result<()> {
         })
         .collect();
     bottom.push(("glossy floor in shadow".to_string(), mask));
-    let composite = compose(width as usize, height as usize, &top, &bottom);
+    zoomed.push(("ratio 1 spp, zoom".to_string(), zoom(&top[2].1, w, h)));
+    let panels: Vec<_> = top.into_iter().chain(bottom).chain(zoomed).collect();
+    let composite = compose(w, h, &panels);
     let file = out.join("room-figure.png");
     composite.save(&file)?;
     println!("wrote {}", file.display());
@@ -195,19 +204,28 @@ fn error_map(x: &[Vec3], reference: &[Vec3]) -> Vec<[u8; 3]> {
 }
 
 /// Two rows of four panels with a label strip above each row.
-fn compose(
-    w: usize,
-    h: usize,
-    top: &[(String, Vec<[u8; 3]>)],
-    bottom: &[(String, Vec<[u8; 3]>)],
-) -> image::RgbImage {
+/// The lower middle of a w x h image (columns w/4 .. 3w/4, rows h/2 .. h),
+/// each pixel repeated 2 x 2: a w x h panel.
+fn zoom(rgb: &[[u8; 3]], w: usize, h: usize) -> Vec<[u8; 3]> {
+    (0..w * h)
+        .map(|k| {
+            let (x, y) = (w / 4 + (k % w) / 2, h / 2 + (k / w) / 2);
+            rgb[y.min(h - 1) * w + x.min(w - 1)]
+        })
+        .collect()
+}
+
+/// Rows of four w x h panels, each with a label strip above it.
+fn compose(w: usize, h: usize, panels: &[(String, Vec<[u8; 3]>)]) -> image::RgbImage {
     let gap = 4;
     let strip = ADVANCE_Y * LABEL_SCALE + 4;
     let cols = 4;
-    let (cw, ch) = (cols * w + (cols - 1) * gap, 2 * (strip + h) + gap);
+    let rows = panels.len().div_ceil(cols);
+    let (cw, ch) = (
+        cols * w + (cols - 1) * gap,
+        rows * (strip + h) + (rows - 1) * gap,
+    );
     let mut pixels = vec![0x0020_2020u32; cw * ch];
-    let mut panels: Vec<(String, Vec<[u8; 3]>)> = top.to_vec();
-    panels.extend_from_slice(bottom);
     for (i, (label, rgb)) in panels.iter().enumerate() {
         let (col, row) = (i % cols, i / cols);
         let x0 = col * (w + gap);
