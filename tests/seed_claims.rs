@@ -131,6 +131,80 @@ fn soft_shadow_is_wrong_on_glossy_receivers_and_ratio_is_not() {
     }
 }
 
+/// The polished floor of `room` where a shadow falls: material `tiles`, away
+/// from geometric edges, resolved roughness below 0.3 at the pixel and its 8
+/// neighbours (the polished tiles, not the grout or its bevel), and some of
+/// the lights' area blocked (`probe`'s area-visibility S_N below its U_N).
+fn shadowed_glossy_floor(
+    scene: &penumbra::scene::Scene,
+    probe: &penumbra::render::Frame,
+) -> Vec<bool> {
+    let tiles = scene
+        .materials
+        .iter()
+        .position(|m| m.name == "tiles")
+        .unwrap() as u32;
+    let (w, h) = (probe.width as usize, probe.height as usize);
+    let inside = interior(probe);
+    let polished = |k: usize| {
+        let g = &probe.gbuf[k];
+        g.kind == PixelKind::Surface && g.material == tiles && g.roughness < 0.3
+    };
+    (0..w * h)
+        .map(|k| {
+            inside[k]
+                && [
+                    k - w - 1,
+                    k - w,
+                    k - w + 1,
+                    k - 1,
+                    k,
+                    k + 1,
+                    k + w - 1,
+                    k + w,
+                    k + w + 1,
+                ]
+                .into_iter()
+                .all(polished)
+                && probe.sn[k].element_sum() < 0.98 * probe.un[k].element_sum()
+        })
+        .collect()
+}
+
+#[test]
+fn soft_shadow_is_wrong_on_the_glossy_floor_of_room_and_ratio_is_not() {
+    let scene = load("room.toml");
+    // Two truths: `reference` (jittered, box-filtered pixels) and the same
+    // MIS estimator converged at pixel centres, where `ratio` and
+    // `soft-shadow` sample too. Against the first, every pixel-centred mode
+    // also carries the box filter's blur of the sharp reflections on the
+    // polished floor; the second leaves only the estimators' own error.
+    let reference = render(&scene, &job(Mode::Reference, 1024, 17));
+    let centred = render(&scene, &job(Mode::Stochastic, 1024, 17));
+    // An independent soft-shadow frame says where the light is blocked.
+    let mask = shadowed_glossy_floor(&scene, &render(&scene, &job(Mode::SoftShadow, 32, 9)));
+    let n = mask.iter().filter(|&&m| m).count();
+    let ratio = render(&scene, &job(Mode::Ratio, 256, 5));
+    let soft = render(&scene, &job(Mode::SoftShadow, 256, 5));
+    let mut factors = Vec::new();
+    for (truth, name) in [(&reference, "reference"), (&centred, "stochastic 1024 spp")] {
+        let e_ratio = rel_mse_where(&ratio, truth, |k| mask[k]);
+        let e_soft = rel_mse_where(&soft, truth, |k| mask[k]);
+        println!(
+            "room, shadowed glossy floor ({n} px), 256 spp, undenoised, against {name}: relMSE ratio {e_ratio:.2e}, soft-shadow {e_soft:.2e} ({:.1}x)",
+            e_soft / e_ratio
+        );
+        factors.push(e_soft / e_ratio);
+    }
+    // The figure needs the shadow to fall on the glossy floor in view: 1423
+    // pixels (15 % of the frame) here; the room before issue 4's figure had
+    // 108 (its polished tiles were few and mostly lit), and fails here.
+    assert!(n > 500, "only {n} shadowed glossy floor pixels");
+    // Measured 3.7x and 72x (128x72, these seeds); soft-shadow = ratio gives 1x.
+    assert!(factors[0] > 3.0, "against reference: {}x", factors[0]);
+    assert!(factors[1] > 30.0, "against pixel centres: {}x", factors[1]);
+}
+
 #[test]
 fn at_one_spp_ratio_beats_stochastic_on_room() {
     let scene = load("room.toml");
