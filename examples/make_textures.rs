@@ -5,8 +5,10 @@
 //! ```
 //!
 //! A 4x4 tile floor, 256x256 each:
-//! - `tiles_diffuse.png`  sRGB colour: two alternating stone tones, dark grout.
-//! - `tiles_roughness.png` linear grey: polished tiles (0.15 / 0.45), rough grout (0.9),
+//! - `tiles_diffuse.png`  sRGB colour: two alternating dark stone tones, light grout
+//!   (dark polished stone, so the glossy reflection of the lights is what the floor
+//!   shows, not its diffuse colour).
+//! - `tiles_roughness.png` linear grey: polished tiles (0.16 / 0.24), rough grout (0.9),
 //!   with a low-frequency smudge so highlights vary within a tile.
 //! - `tiles_normal.png`   tangent-space normals, +Y up (OpenGL): grooves at the grout
 //!   lines and a gentle bevel, from finite differences of a height field.
@@ -57,11 +59,11 @@ fn main() {
         let (s, t) = uv(i, j);
         let (d, tx, ty) = tile(s, t);
         if d < GROUT {
-            Rgb([70, 66, 60])
+            Rgb([150, 144, 134])
         } else if (tx + ty) % 2 == 0 {
-            Rgb([200, 190, 170])
+            Rgb([46, 44, 42])
         } else {
-            Rgb([150, 120, 95])
+            Rgb([78, 56, 42])
         }
     });
     diffuse
@@ -74,8 +76,8 @@ fn main() {
         let r = if d < GROUT {
             0.9
         } else {
-            let base = if (tx + ty) % 2 == 0 { 0.15 } else { 0.45 };
-            let smudge = 0.1 * (s * 9.0).sin() * (t * 7.0).cos();
+            let base = if (tx + ty) % 2 == 0 { 0.16 } else { 0.24 };
+            let smudge = 0.03 * (s * 9.0).sin() * (t * 7.0).cos();
             base + smudge
         };
         Luma([(r.clamp(0.0, 1.0) * 255.0).round() as u8])
