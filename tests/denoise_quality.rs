@@ -316,8 +316,14 @@ fn floor_laplacian(colors: &[Vec3], window: &[usize], w: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The ratio's floor matches the truth's high-frequency energy; denoised
+/// stochastic does not. On the dark glossy floor (since the roomfig scene)
+/// stochastic no longer loses the detail (it keeps 1.09 of it after one
+/// frame; 0.57 on the earlier white floor): the lobe and `U` edge-stopping
+/// keep its taps apart, so its noise stays, and the high-pass energy is 3x
+/// the truth's. Either way it does not match; the test asks exactly that.
 #[test]
-fn floor_detail_survives_in_ratio_and_is_lost_by_stochastic() {
+fn floor_detail_survives_in_ratio_and_stochastic_does_not_match_it() {
     let size = (320u32, 180u32);
     let scene = load("room.toml");
     // The detail a pixel-centred renderer should show: `stochastic` at
@@ -369,13 +375,18 @@ fn floor_detail_survives_in_ratio_and_is_lost_by_stochastic() {
         );
         at.push(m);
     }
-    let (ratio_energy, ratio_kept, _, stochastic_kept) = at[0];
+    let (ratio_energy, ratio_kept, stochastic_energy, stochastic_kept) = at[0];
     assert!(
         (ratio_energy - 1.0).abs() < 0.25,
         "ratio energy {ratio_energy}"
     );
     assert!((ratio_kept - 1.0).abs() < 0.1, "ratio keeps {ratio_kept}");
-    assert!(stochastic_kept < 0.6, "stochastic keeps {stochastic_kept}");
+    // Not matched: detail lost (kept < 0.6) or buried in noise (energy more
+    // than 25 % off the truth's).
+    assert!(
+        stochastic_kept < 0.6 || (stochastic_energy - 1.0).abs() > 0.25,
+        "stochastic keeps {stochastic_kept}, energy {stochastic_energy}"
+    );
 }
 
 #[test]
@@ -529,7 +540,9 @@ fn on_an_orbit_penumbrae_flicker_little() {
     );
     assert!(n > 1000, "only {n} penumbra pixel-frames");
     // Undenoised, the same pixels change by ~0.5 a frame (0.49 at 320x180 in
-    // examples/denoise_table.rs).
+    // examples/denoise_table.rs). On the glossy-floor room: 0.070 when last
+    // measured; 0.091 while the history was judged on the whole `U`, whose
+    // specular part slides with the camera (see `temporal::light_changed`).
     assert!(denoised < 0.08, "flicker {denoised}");
 }
 
