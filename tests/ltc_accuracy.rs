@@ -16,20 +16,22 @@ use rayon::prelude::*;
 const ROUGHNESS: [f32; 7] = [0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0];
 const VIEW_DEG: [f32; 8] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0, 89.0];
 /// The target: median relative error of the specular U for
-/// roughness >= 0.2 (lights holding >= 1% of the lobe).
+/// roughness >= 0.2 (lights holding >= 1% of the lobe), asserted for the
+/// worst of the three F0 channels and for F0 = 1 alone.
 const TARGET_MEDIAN: f32 = 0.01;
-/// Measured with the committed table (roughness >= 0.2, lights holding >= 1%
-/// of the lobe), rounded up; regression guards, printed beside the target:
-/// relative error of the F0 = 1 specular (median, max); of the worst of the
-/// three F0 channels (median, max); error of lights holding < 1% of the lobe
-/// as a fraction of the whole lobe. The worst case (a 2x2 light overhead,
+/// Measured with the committed table and shape correction (roughness >= 0.2,
+/// lights holding >= 1% of the lobe), rounded up; regression guards:
+/// relative error of the F0 = 1 specular (max); of the worst of the three F0
+/// channels (p90, max); error of lights holding < 1% of the lobe as a
+/// fraction of the whole lobe. The worst case (a 2x2 light overhead,
 /// roughness 0.2, view 89 degrees, holding 1.6% of the lobe: the grazing
-/// lobe's far tail, which no transformed cosine follows) is printed.
-const MEASURED_METAL_MEDIAN: f32 = 0.0125;
+/// lobe's far tail, which no transformed cosine follows and which the
+/// correction's four nodes do not resolve, so it is left uncorrected) is
+/// printed.
 const MEASURED_METAL_MAX: f32 = 0.45;
-const MEASURED_FRESNEL_MEDIAN: f32 = 0.015;
+const MEASURED_FRESNEL_P90: f32 = 0.1;
 const MEASURED_FRESNEL_MAX: f32 = 0.85;
-const MEASURED_MINOR_OF_LOBE: f32 = 0.004;
+const MEASURED_MINOR_OF_LOBE: f32 = 0.003;
 /// The reference's own bound: its estimated relative error (sum of the
 /// adaptive quadrature's per-triangle error estimates) stays below this.
 const REFERENCE_BOUND: f64 = 1e-2;
@@ -270,7 +272,7 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
     println!("GGX roughness >= 0.2 per channel:{per_f0}");
     if rough_stats.0 > TARGET_MEDIAN || metal_med > TARGET_MEDIAN {
         println!(
-            "NOTE: the 1% median target for roughness >= 0.2 is NOT met (F0 = 1 median {metal_med:.4}, worst-channel median {:.4}; see the asserted measured bounds).",
+            "NOTE: the 1% median target for roughness >= 0.2 is NOT met (F0 = 1 median {metal_med:.4}, worst-channel median {:.4}).",
             rough_stats.0
         );
     }
@@ -318,17 +320,21 @@ fn ggx_and_lambert_match_brute_force_over_the_grid() {
         "Lambert error {}",
         worst_d.diffuse_err
     );
-    // Measured bounds of the committed table (regression guards, NOT the 1%
-    // target, which this LTC does not reach; see the printed NOTE):
     assert!(
-        metal_med <= MEASURED_METAL_MEDIAN,
-        "F0 = 1 median {metal_med}"
+        metal_med <= TARGET_MEDIAN,
+        "F0 = 1 median {metal_med} above the 1% target"
     );
+    assert!(
+        rough_stats.0 <= TARGET_MEDIAN,
+        "worst-channel median {} above the 1% target",
+        rough_stats.0
+    );
+    // Measured bounds (regression guards) of the tails:
     assert!(metal_max <= MEASURED_METAL_MAX, "F0 = 1 max {metal_max}");
     assert!(
-        rough_stats.0 <= MEASURED_FRESNEL_MEDIAN,
-        "median with Fresnel split {}",
-        rough_stats.0
+        rough_stats.1 <= MEASURED_FRESNEL_P90,
+        "p90 with Fresnel split {}",
+        rough_stats.1
     );
     assert!(
         rough_stats.2 <= MEASURED_FRESNEL_MAX,

@@ -3,6 +3,7 @@
 
 pub mod brdf;
 pub mod ltc;
+pub mod ltc_correction;
 pub mod ltc_fit;
 pub mod nelder_mead;
 pub mod polygon;

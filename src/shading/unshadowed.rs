@@ -16,6 +16,7 @@
 
 use super::brdf::Frame;
 use super::ltc;
+use super::ltc_correction::lobe_factors;
 use super::polygon::{
     MAX_LIGHT_VERTICES, MAX_VERTICES, Polygon, clip_upper_into, edge_sum_fixed, edge_sum_triple,
 };
@@ -158,17 +159,17 @@ pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Ve
     // (diffuse/π) ∫ cos dω = diffuse * form factor.
     let ff = form_factor(ff) as f32;
     let diffuse = sp.diffuse * light.radiance * ff;
-    // Each lobe: LTC mixed with the clamped cosine (whose integral is `ff`).
-    let a = if want_a {
-        c.mag * ((1.0 - c.mix) * form_factor(ia) as f32 / c.hmass + c.mix * ff)
-    } else {
-        0.0
-    };
-    let b = if want_b {
-        c.fres * ((1.0 - c.fmix) * form_factor(ib) as f32 / c.fhmass + c.fmix * ff)
-    } else {
-        0.0
-    };
+    // Each lobe: LTC mixed with the clamped cosine (whose integral is `ff`),
+    // as the light's share of the lobe, then corrected for the LTC's shape
+    // error with the exact BRDF (`ltc_correction`).
+    let cos_v = sp.n.dot(sp.wo).clamp(0.0, 1.0);
+    let wo = Vec3::new((1.0 - cos_v * cos_v).sqrt(), 0.0, cos_v);
+    let alpha = super::brdf::alpha_from_roughness(sp.roughness);
+    let share_a = (1.0 - c.mix) * form_factor(ia) as f32 / c.hmass + c.mix * ff;
+    let share_b = (1.0 - c.fmix) * form_factor(ib) as f32 / c.fhmass + c.fmix * ff;
+    let (ka, kb) = lobe_factors(poly.vertices(), &c, share_a, share_b, wo, alpha);
+    let a = if want_a { c.mag * share_a * ka } else { 0.0 };
+    let b = if want_b { c.fres * share_b * kb } else { 0.0 };
     let specular = light.radiance * (sp.specular * a + (Vec3::ONE - sp.specular) * b);
     nonnegative(diffuse, specular)
 }
