@@ -110,3 +110,33 @@ fn bad_inputs_give_a_finite_lobe() {
         );
     }
 }
+
+/// On a near-mirror the lobe guide keeps every spatial neighbour out, so a
+/// pixel's own ratio stands, unless its samples carry almost none of `U`
+/// (a light sample far off the lobe: positive but negligible weight): then
+/// its 0-or-1 ratio says nothing about the lobe, and the neighbours decide.
+#[test]
+fn on_a_near_mirror_a_pixel_whose_samples_carry_no_weight_takes_its_neighbours_ratio() {
+    let f = Frame::plane(W, H);
+    let lobe = lobes(&f, 0.0025, 1.0);
+    let guide = GuideBuffers {
+        lobe: &lobe,
+        ..f.guide()
+    };
+    // One frame: every pixel shadowed with a full-weight sample (U_N = U),
+    // except two lit ones, one with full weight and one with 1e-4 of it.
+    let n = f.n();
+    let (mut un, mut sn) = (vec![Vec3::ONE; n], vec![Vec3::ZERO; n]);
+    let at = |x: u32, y: u32| (y * W + x) as usize;
+    let (weak, strong) = (at(20, 20), at(70, 20));
+    un[weak] = Vec3::splat(1e-4);
+    sn[weak] = un[weak];
+    sn[strong] = un[strong];
+    Denoiser::new(W, H).denoise(&guide, &mut un, &mut sn, &DenoiseSettings::default());
+    let (r_weak, r_strong) = (ratio(un[weak], sn[weak]), ratio(un[strong], sn[strong]));
+    assert!(r_weak < 0.05, "weightless lit sample kept ratio {r_weak}");
+    assert!(
+        r_strong > 0.95,
+        "full-weight lit sample blurred to {r_strong}"
+    );
+}

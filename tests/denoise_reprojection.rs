@@ -1,11 +1,12 @@
 //! Temporal reprojection: history follows the camera exactly on whole-pixel
-//! shifts, and is dropped on disocclusion and on a big change of U.
+//! shifts, and is dropped on disocclusion and on a big change of U (judged on
+//! U's diffuse part where it has one: a camera move slides glossy highlights).
 
 mod denoise_support;
 
 use denoise_support::{Frame, Rng};
 use glam::{Vec2, Vec3};
-use penumbra::denoise::{DenoiseSettings, Denoiser};
+use penumbra::denoise::{DenoiseSettings, Denoiser, Lobe};
 
 const W: u32 = 40;
 const H: u32 = 30;
@@ -82,8 +83,24 @@ fn whole_pixel_shift_carries_history_exactly() {
 /// Two frames on a static plane; `edit` changes the second frame's guides in
 /// the region x < 10. Returns (output, inputs of frame 2, history lengths).
 fn two_frames(edit: impl Fn(&mut Frame, usize)) -> (Vec<Vec3>, Vec<Vec3>, Vec<f32>) {
-    let f1 = Frame::plane(W, H);
-    let mut f2 = Frame::plane(W, H);
+    two_frames_from(Frame::plane(W, H), edit)
+}
+
+/// `two_frames`, both frames starting as `f1`.
+fn two_frames_from(
+    f1: Frame,
+    edit: impl Fn(&mut Frame, usize),
+) -> (Vec<Vec3>, Vec<Vec3>, Vec<f32>) {
+    let mut f2 = Frame {
+        pos: f1.pos.clone(),
+        normal: f1.normal.clone(),
+        depth: f1.depth.clone(),
+        prev_pixel: f1.prev_pixel.clone(),
+        prev_valid: f1.prev_valid.clone(),
+        u: f1.u.clone(),
+        lobe: f1.lobe.clone(),
+        ..f1
+    };
     for i in 0..f2.n() {
         if (i as u32 % W) < 10 {
             edit(&mut f2, i);
@@ -156,5 +173,43 @@ fn small_change_of_u_keeps_history() {
 #[test]
 fn invalid_reprojection_drops_history() {
     let (out, input, len) = two_frames(|f, i| f.prev_valid[i] = false);
+    assert_reset_left_only(&out, &input, &len);
+}
+
+/// A plane whose `U` is `u` everywhere, a `share` of it in the specular lobe.
+fn glossy_plane(u: f32, share: f32) -> Frame {
+    let mut f = Frame::plane(W, H);
+    f.u = vec![Vec3::splat(u); f.n()];
+    f.lobe = vec![Lobe::new(Vec3::Z, Vec3::Z, 0.3, share); f.n()];
+    f
+}
+
+/// Sets pixel i's `U` to a diffuse part `d` plus a specular part `s`.
+fn set_u(f: &mut Frame, i: usize, d: f32, s: f32) {
+    f.u[i] = Vec3::splat(d + s);
+    f.lobe[i] = Lobe::new(Vec3::Z, Vec3::Z, 0.3, s / (d + s));
+}
+
+#[test]
+fn a_glossy_highlight_sliding_under_a_camera_move_keeps_history() {
+    // U = 0.4 diffuse + 0.6 specular; the camera moved and the specular part
+    // doubled (U up 60 %), the diffuse part (the light's witness) did not.
+    let (_, _, len) = two_frames_from(glossy_plane(1.0, 0.6), |f, i| set_u(f, i, 0.4, 1.2));
+    assert!(len.iter().all(|&l| l == 2.0));
+}
+
+#[test]
+fn a_light_change_on_a_glossy_surface_drops_history() {
+    // The light doubled: both parts of U doubled.
+    let (out, input, len) = two_frames_from(glossy_plane(1.0, 0.6), |f, i| set_u(f, i, 0.8, 1.2));
+    assert_reset_left_only(&out, &input, &len);
+}
+
+#[test]
+fn on_a_near_mirror_the_whole_u_is_judged() {
+    // 1 % diffuse is too small a witness: a 50 % change of U drops the
+    // history even though the diffuse part stayed.
+    let (out, input, len) =
+        two_frames_from(glossy_plane(1.0, 0.99), |f, i| set_u(f, i, 0.01, 1.49));
     assert_reset_left_only(&out, &input, &len);
 }

@@ -2,7 +2,7 @@
 //! next frame needs to validate a reprojection tap.
 //!
 //! At 1280x720 the denoiser is bound by memory traffic, not arithmetic, so
-//! the record is kept small (36 bytes): the normal is octahedron-encoded.
+//! the record is kept small (40 bytes): the normal is octahedron-encoded.
 
 use glam::{Vec2, Vec3};
 
@@ -15,8 +15,10 @@ pub(crate) struct Meta {
     pub normal: [i16; 2],
     /// 0: no surface, the pixel has no history to give.
     pub depth: f32,
-    /// Luminance of the analytic `U` this frame, to detect light changes.
+    /// Luminance of the analytic `U` this frame, and of its diffuse part
+    /// (which a camera move cannot change), to detect light changes.
     pub lu: f32,
+    pub lu_diffuse: f32,
     /// Accumulated first and second moments of the raw per-frame ratio
     /// (same blend as the signals), for the temporal noise estimate.
     pub m1: f32,

@@ -22,6 +22,10 @@ pub struct Lobe {
     /// times this is their separation in lobe widths, squared. 0: no
     /// specular lobe (or none known), no constraint.
     pub sharpness: f32,
+    /// The specular lobe's share of the luminance of `U`, in [0, 1]: the
+    /// rest (the diffuse part) does not depend on the view, which is what
+    /// lets the history tell a camera move from a light change.
+    pub share: f32,
 }
 
 impl Lobe {
@@ -39,11 +43,15 @@ impl Lobe {
         let width = 2.0 * alpha.max(1e-4);
         let dir = (2.0 * n.dot(wo) * n - wo).normalize_or_zero();
         if share <= 0.0 || dir == Vec3::ZERO {
-            return Lobe::default();
+            return Lobe {
+                share,
+                ..Lobe::default()
+            };
         }
         Lobe {
             dir,
             sharpness: share / (width * width),
+            share,
         }
     }
 

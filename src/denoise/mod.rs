@@ -76,8 +76,9 @@ pub struct DenoiseSettings {
     /// Reprojection tap rejected when the previous point lies farther than
     /// this * d from the current tangent plane.
     pub plane_tolerance: f32,
-    /// History dropped when the luminance of `U` changed by more than this
-    /// fraction (a light moved or was edited).
+    /// History dropped when the luminance of `U`'s diffuse part (of the
+    /// whole `U` where that part is under 2 % of it) changed by more than
+    /// this fraction (a light moved or was edited; see `temporal`).
     pub u_change: f32,
     /// Most à-trous levels (3x3 taps at steps 1, 2, 4, ...: radius 2^n - 1).
     pub max_levels: u8,

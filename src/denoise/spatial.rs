@@ -13,7 +13,7 @@
 
 use super::history::History;
 use super::tiles::{TILE, Tiles};
-use super::{DenoiseSettings, Lobe, ratio};
+use super::{DenoiseSettings, Lobe, luminance, ratio};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -97,6 +97,7 @@ pub(crate) fn filter(
         inv_u: 1.0 / s.sigma_u.max(1e-6),
         sigma_ratio: s.sigma_ratio,
         lobe_scale: s.lobe_scale,
+        acc_un: &cur.un,
     };
     let (mut out, mut scratch) = (out, scratch);
     if max_level >= 2 {
@@ -140,6 +141,8 @@ struct Ctx<'a> {
     inv_u: f32,
     sigma_ratio: f32,
     lobe_scale: f32,
+    /// The accumulated `U_N` (the levels' input), for each pixel's confidence.
+    acc_un: &'a [Vec3],
 }
 
 impl Ctx<'_> {
@@ -226,6 +229,14 @@ impl Ctx<'_> {
         // The ratio's noise shrinks about twofold per level already run.
         let sig = (inp.sigma[i] * self.sigma_ratio / step as f32).max(1e-4);
         let inv_sig = 1.0 / sig;
+        // How much of `U` this pixel's own samples carry (1 on average).
+        // A pixel whose samples carry almost none (a light sample far off a
+        // near-mirror's lobe: positive but negligible weight) still has a
+        // ratio of 0 or 1, which says nothing about its lobe; the lobe
+        // guide would keep every neighbour out and leave that value. Its
+        // lobe term is scaled down so the neighbours, weighted by their own
+        // `U_N`, decide.
+        let lobe_scale = self.lobe_scale * confidence(self.acc_un[i], p.lu);
         let hc = KERNEL[1] * KERNEL[1];
         let mut su = src.un[i] * hc;
         let mut ss = src.sn[i] * hc;
@@ -260,7 +271,7 @@ impl Ctx<'_> {
                 };
                 let e_r = (rp - src.ratio[j]).abs() * inv_sig;
                 // Sharp shadows seen through a narrow specular lobe.
-                let e_lobe = p.lobe.separation2(&q.lobe) * self.lobe_scale;
+                let e_lobe = p.lobe.separation2(&q.lobe) * lobe_scale;
                 let wt = hx * hy * falloff(e_plane + e_normal + e_u + e_r + e_lobe);
                 if wt > 0.0 {
                     su += src.un[j] * wt;
@@ -294,6 +305,16 @@ impl Ctx<'_> {
         } else {
             src.ratio[y * w + x]
         }
+    }
+}
+
+/// Luminance of `U_N` over that of `U`, in [0, 1]; 1 where `U` is dark.
+#[inline]
+fn confidence(un: Vec3, lu: f32) -> f32 {
+    if lu > 1e-30 {
+        (luminance(un) / lu).clamp(0.0, 1.0)
+    } else {
+        1.0
     }
 }
 

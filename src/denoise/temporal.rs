@@ -31,6 +31,7 @@ struct Acc {
     m2: f32,
     len: f32,
     lu: f32,
+    lu_diffuse: f32,
 }
 
 /// Non-finite or negative input would poison the history for `max_history`
@@ -95,11 +96,23 @@ pub(crate) fn accumulate(
                 let r = ratio(u_in, s_in);
                 let lu = luminance(guide.u[i]);
                 let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
+                let share = guide.lobe.get(i).map_or(0.0, |l| l.share);
+                let lu_diffuse = lu * (1.0 - share);
                 let pos = guide.position[i];
                 let normal = guide.normal[i];
 
                 let hist = if settings.temporal && guide.prev_valid[i] {
-                    reproject(guide, prev, x, y, d, pos, normal, lu, settings)
+                    reproject(
+                        guide,
+                        prev,
+                        x,
+                        y,
+                        d,
+                        pos,
+                        normal,
+                        (lu, lu_diffuse),
+                        settings,
+                    )
                 } else {
                     None
                 };
@@ -128,6 +141,7 @@ pub(crate) fn accumulate(
                     normal: encode_normal(normal),
                     depth: d,
                     lu,
+                    lu_diffuse,
                     m1,
                     m2,
                     len,
@@ -158,7 +172,7 @@ fn reproject(
     depth: f32,
     pos: Vec3,
     normal: Vec3,
-    lu: f32,
+    (lu, lu_diffuse): (f32, f32),
     s: &DenoiseSettings,
 ) -> Option<Reprojected> {
     let w = guide.width as i64;
@@ -194,6 +208,7 @@ fn reproject(
             acc.m2 += m.m2 * wt;
             acc.len += m.len * wt;
             acc.lu += m.lu * wt;
+            acc.lu_diffuse += m.lu_diffuse * wt;
         }
     };
     tap(&mut acc, x0, y0, (1.0 - fx) * (1.0 - fy));
@@ -208,17 +223,18 @@ fn reproject(
         m2,
         len,
         lu: lu_prev,
+        lu_diffuse: lu_diffuse_prev,
     } = acc;
     // A sliver of valid footprint is too little to trust.
     if wsum < 1e-3 {
         return None;
     }
     let inv = 1.0 / wsum;
-    let lu_prev = lu_prev * inv;
-    // The analytic U is noise-free, so any sizeable change is a real light
-    // change (moved, edited, toggled): the old visibility no longer applies.
-    let big = lu.max(lu_prev);
-    if big > 1e-30 && (lu - lu_prev).abs() > s.u_change * big {
+    if light_changed(
+        (lu, lu_diffuse),
+        (lu_prev * inv, lu_diffuse_prev * inv),
+        s.u_change,
+    ) {
         return None;
     }
     Some(Reprojected {
@@ -228,6 +244,33 @@ fn reproject(
         m2: m2 * inv,
         len: len * inv,
     })
+}
+
+/// Below this diffuse share of `U` (in either frame) the diffuse part is too
+/// small a witness, and the whole `U` is compared.
+const MIN_DIFFUSE_SHARE: f32 = 0.02;
+
+/// Whether the light at a surface point changed between two frames (moved,
+/// edited, toggled), so the old visibility no longer applies; `U` is
+/// noise-free, so any sizeable change is real. Arguments: luminance of `U`
+/// and of its diffuse part, now and in the previous frame. The specular part
+/// of `U` also changes when only the camera moves (a glossy highlight
+/// slides over the floor), which must not cost the history; the diffuse
+/// part depends on the light alone, so it is the witness wherever it
+/// carries a fair share of `U`.
+#[inline]
+fn light_changed(now: (f32, f32), before: (f32, f32), tolerance: f32) -> bool {
+    let differ = |a: f32, b: f32| {
+        let big = a.max(b);
+        big > 1e-30 && (a - b).abs() > tolerance * big
+    };
+    let diffuse_witness =
+        now.1 >= MIN_DIFFUSE_SHARE * now.0 && before.1 >= MIN_DIFFUSE_SHARE * before.0;
+    if diffuse_witness {
+        differ(now.1, before.1)
+    } else {
+        differ(now.0, before.0)
+    }
 }
 
 /// floor as an integer without a libm call (baseline x86-64 has no roundss).

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use glam::{Vec2, Vec3};
-use penumbra::denoise::{GuideBuffers, luminance};
+use penumbra::denoise::{GuideBuffers, Lobe, luminance};
 
 /// splitmix64: deterministic, dependency-free.
 pub struct Rng(u64);
@@ -35,6 +35,8 @@ pub struct Frame {
     pub prev_pixel: Vec<Vec2>,
     pub prev_valid: Vec<bool>,
     pub u: Vec<Vec3>,
+    /// Empty: no lobe guide.
+    pub lobe: Vec<Lobe>,
 }
 
 /// Which surface a pixel sees.
@@ -75,6 +77,7 @@ impl Frame {
             prev_pixel: vec![Vec2::ZERO; n],
             prev_valid: vec![true; n],
             u: vec![Vec3::ONE; n],
+            lobe: Vec::new(),
         };
         for y in 0..h {
             for x in 0..w {
@@ -110,7 +113,7 @@ impl Frame {
             prev_pixel: &self.prev_pixel,
             prev_valid: &self.prev_valid,
             u: &self.u,
-            lobe: &[],
+            lobe: &self.lobe,
         }
     }
 }
