@@ -458,3 +458,32 @@ fn edge_on_and_grazing_points_give_none_or_finite_samples() {
         }
     }
 }
+
+/// A small convex quad (no `quad` frame, so the triangle fan) about 2° across,
+/// the case proptest found: in `f32` the spherical-triangle sampler put
+/// this sample 4e-4 outside the edge v2–v3 (0.7 % of its length), a light
+/// sample that misses its light. Every sample of a grid must land on it.
+#[test]
+fn fan_samples_of_a_small_polygon_land_on_the_polygon() {
+    let v = vec![
+        Vec3::new(0.247_528_88, -0.216_142_46, 0.828_990_9),
+        Vec3::new(0.451_797_28, -0.323_029_16, 0.789_334_95),
+        Vec3::new(0.320_526_63, -0.268_871_58, 0.884_078_6),
+        Vec3::new(0.269_433_38, -0.242_606_64, 0.896_239_76),
+    ];
+    let l = polygon_light(v, false);
+    let p = Vec3::new(0.000_944_618_1, 0.0, 0.0);
+    let n = 64;
+    for i in 0..n {
+        for j in 0..n {
+            let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+            let s = sample_light(&l, p, u).expect("a sample");
+            assert!(
+                intersect_light(&l, p, s.wi).is_some(),
+                "u {u} misses: {s:?}"
+            );
+        }
+    }
+    let s = sample_light(&l, p, Vec2::new(0.961_508_3, 0.452_347_2)).expect("a sample");
+    assert!(intersect_light(&l, p, s.wi).is_some(), "{s:?}");
+}

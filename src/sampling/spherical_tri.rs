@@ -30,7 +30,7 @@ pub(crate) fn solid_angle_with_lengths([a, b, c]: [DVec3; 3], [la, lb, lc]: [f64
 /// Unit component of `v` orthogonal to unit `axis`; any orthogonal unit
 /// vector when `v` is parallel to it (only reached by degenerate triangles).
 #[inline]
-fn orthogonal_unit(v: Vec3, axis: Vec3) -> Vec3 {
+fn orthogonal_unit(v: DVec3, axis: DVec3) -> DVec3 {
     (v - axis * v.dot(axis))
         .try_normalize()
         .unwrap_or_else(|| axis.any_orthonormal_vector())
@@ -42,7 +42,13 @@ fn orthogonal_unit(v: Vec3, axis: Vec3) -> Vec3 {
 /// area from edge `ab` (as a sub-triangle a-b-c'), `u.y` moves along the arc
 /// from `b` to the sub-triangle's new corner c', so strata in `u` stay strata
 /// on the sphere.
+///
+/// The arithmetic is `f64`: for a triangle a few degrees across, step 1
+/// subtracts nearly equal products, and in `f32` the sample could land
+/// ~1 % of an edge outside the triangle (a light sample that misses its light).
 pub fn sample(a: Vec3, b: Vec3, c: Vec3, omega: f32, u: Vec2) -> Vec3 {
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let (ux, uy) = (u.x as f64, u.y as f64);
     // Interior angle α at a: between the great circles a–b and a–c, whose
     // normals are x = a×b and y = a×c. Only its sine and cosine are needed:
     // cos α = x·y / (|x||y|), and since x×y = (a·(b×c)) a for unit a,
@@ -63,7 +69,7 @@ pub fn sample(a: Vec3, b: Vec3, c: Vec3, omega: f32, u: Vec2) -> Vec3 {
     let cos_c = a.dot(b); // cosine of the arc length a–b
 
     // Step 1: the corner c' on arc a–c such that triangle a-b-c' has area u.x·Ω.
-    let area = u.x * omega;
+    let area = ux * omega as f64;
     let (sin_area, cos_area) = area.sin_cos();
     let s = sin_area * cos_alpha - cos_area * sin_alpha;
     let t = cos_area * cos_alpha + sin_area * sin_alpha;
@@ -78,9 +84,9 @@ pub fn sample(a: Vec3, b: Vec3, c: Vec3, omega: f32, u: Vec2) -> Vec3 {
     let c_new = q * a + (1.0 - q * q).max(0.0).sqrt() * orthogonal_unit(c, a);
 
     // Step 2: a point on arc b–c' with cos(angle from b) uniform in the cap sense.
-    let z = (1.0 - u.y * (1.0 - c_new.dot(b))).clamp(-1.0, 1.0);
+    let z = (1.0 - uy * (1.0 - c_new.dot(b))).clamp(-1.0, 1.0);
     let dir = z * b + (1.0 - z * z).max(0.0).sqrt() * orthogonal_unit(c_new, b);
-    dir.normalize()
+    dir.normalize().as_vec3()
 }
 
 /// Solid angle of the full sphere, the upper bound for any light.
