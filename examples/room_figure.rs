@@ -21,8 +21,8 @@
 use glam::Vec3;
 use penumbra::embree::{self, Device};
 use penumbra::output::display_rgb8;
-use penumbra::render::{Frame, Mode, PixelKind, RenderSettings, World};
-use penumbra::report::stats::{interior, rel_mse, rel_mse_masked};
+use penumbra::render::{Frame, Mode, RenderSettings, World};
+use penumbra::report::stats::{rel_mse, rel_mse_masked, shadowed_glossy};
 use penumbra::scene::Scene;
 use penumbra::view::font::{ADVANCE_Y, Canvas};
 use std::path::Path;
@@ -73,7 +73,11 @@ fn main() -> anyhow::Result<()> {
     let centred = render(Mode::Stochastic, ref_spp, 0x5eed);
     // An independent soft-shadow frame says where some of the light is blocked.
     let probe = render(Mode::SoftShadow, 32, 99);
-    let shadowed = shadowed_glossy_floor(&probe, tiles);
+    // No `tiles` material (another scene): no pixel qualifies.
+    let shadowed = match tiles {
+        Some(t) => shadowed_glossy(&probe, t as u32, GLOSSY_ROUGHNESS),
+        None => vec![false; probe.gbuf.len()],
+    };
     let n = shadowed.iter().filter(|&&m| m).count();
     println!(
         "{path} {width}x{height}; relMSE, undenoised, whole image and on the shadowed glossy floor ({n} px)"
@@ -147,41 +151,6 @@ fn main() -> anyhow::Result<()> {
     composite.save(&file)?;
     println!("wrote {}", file.display());
     Ok(())
-}
-
-/// The polished floor where a shadow falls, as tests/seed_claims.rs counts
-/// it: material `tiles`, away from geometric edges, resolved roughness below
-/// `GLOSSY_ROUGHNESS` at the pixel and its 8 neighbours (not the grout or its
-/// bevel), and some of the lights' area blocked (`probe`, an area-visibility
-/// frame, has S_N below U_N).
-fn shadowed_glossy_floor(probe: &Frame, tiles: Option<usize>) -> Vec<bool> {
-    let (w, h) = (probe.width as usize, probe.height as usize);
-    let inside = interior(probe.width, probe.height, &probe.gbuf);
-    let polished = |k: usize| {
-        let g = &probe.gbuf[k];
-        g.kind == PixelKind::Surface
-            && Some(g.material as usize) == tiles
-            && g.roughness < GLOSSY_ROUGHNESS
-    };
-    (0..w * h)
-        .map(|k| {
-            inside[k]
-                && [
-                    k - w - 1,
-                    k - w,
-                    k - w + 1,
-                    k - 1,
-                    k,
-                    k + 1,
-                    k + w - 1,
-                    k + w,
-                    k + w + 1,
-                ]
-                .into_iter()
-                .all(polished)
-                && probe.sn[k].element_sum() < 0.98 * probe.un[k].element_sum()
-        })
-        .collect()
 }
 
 fn to_rgb(color: &[Vec3]) -> Vec<[u8; 3]> {

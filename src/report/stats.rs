@@ -29,6 +29,34 @@ pub fn rel_mse(x: &[glam::Vec3], reference: &[glam::Vec3]) -> f64 {
     sum / (3 * x.len().max(1)) as f64
 }
 
+/// The glossy receiver where a shadow falls, for the seed's claim on `room`:
+/// pixels of `material` away from geometric edges whose resolved roughness is
+/// below `max_roughness` at the pixel and its 8 neighbours (polished tiles,
+/// not grout or its bevel), and where some of the lights' area is blocked
+/// (`probe`, an area-visibility frame, has S_N below U_N).
+pub fn shadowed_glossy(
+    probe: &crate::render::Frame,
+    material: u32,
+    max_roughness: f32,
+) -> Vec<bool> {
+    let (w, h) = (probe.width as usize, probe.height as usize);
+    let inside = interior(probe.width, probe.height, &probe.gbuf);
+    let glossy = |k: usize| {
+        let g = &probe.gbuf[k];
+        g.kind == crate::render::PixelKind::Surface
+            && g.material == material
+            && g.roughness < max_roughness
+    };
+    (0..w * h)
+        .map(|k| {
+            // `interior` is false on the border, so the 3x3 never leaves the frame.
+            inside[k]
+                && (0..9).all(|i| glossy(k + (i % 3) + (i / 3) * w - w - 1))
+                && probe.sn[k].element_sum() < 0.98 * probe.un[k].element_sum()
+        })
+        .collect()
+}
+
 /// Pixels away from geometric edges: the pixel and its 8 neighbours see the
 /// same kind of thing with the same material (in a G-buffer traced at pixel
 /// centres). The reference's box filter blends across edges; comparing
