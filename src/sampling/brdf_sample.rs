@@ -105,7 +105,7 @@ pub fn vndf_pdf(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
 pub fn spec_lobe_probability(diffuse: Vec3, specular: Vec3, n_dot_wo: f32) -> f32 {
     const LUMA: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
     let wd = diffuse.dot(LUMA).max(0.0);
-    let ws = if specular.max_element() > 0.0 {
+    let ws = if crate::shading::brdf::has_specular_lobe(specular) {
         let m = (1.0 - n_dot_wo.clamp(0.0, 1.0)).powi(5);
         (specular + (Vec3::ONE - specular) * m).dot(LUMA).max(0.0)
     } else {

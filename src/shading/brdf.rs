@@ -116,17 +116,24 @@ pub fn spec_local(alpha: f32, wi: Vec3, wo: Vec3) -> (f32, f32) {
     (d * g / (4.0 * ci * co), wo.dot(h))
 }
 
-/// Full BRDF value per channel in the local frame (normal = +Z).
-/// `specular = [0, 0, 0]` means no specular lobe at all (SCENE_FORMAT.md):
-/// Schlick's grazing term `(1 - wo.h)^5` must not bring one back, or every
-/// Monte Carlo answer on such a surface (stochastic, reference) would gain
-/// a grazing highlight that `U` and an independent renderer do not have.
+/// Whether a material has a specular lobe at all: `specular = [0, 0, 0]`
+/// means none (SCENE_FORMAT.md), so Schlick's grazing term `(1 - wo.h)^5`
+/// must not bring one back. The one test that `U`, the BRDF and the lobe
+/// choice of the samplers share, so that the analytic and Monte Carlo
+/// answers (stochastic, reference) agree on such surfaces.
+#[inline]
+pub fn has_specular_lobe(specular: Vec3) -> bool {
+    specular.max_element() > 0.0
+}
+
+/// Full BRDF value per channel in the local frame (normal = +Z); diffuse
+/// only where `has_specular_lobe` is false.
 #[inline]
 pub fn eval_local(wi: Vec3, wo: Vec3, diffuse: Vec3, specular: Vec3, roughness: f32) -> Vec3 {
     if wi.z <= 0.0 {
         return Vec3::ZERO;
     }
-    if specular.max_element() <= 0.0 {
+    if !has_specular_lobe(specular) {
         return diffuse * (1.0 / PI);
     }
     let (s, cos_oh) = spec_local(alpha_from_roughness(roughness), wi, wo);

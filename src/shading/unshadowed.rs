@@ -122,7 +122,7 @@ pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Ve
     }
 
     let want_d = sp.diffuse != Vec3::ZERO;
-    if sp.specular == Vec3::ZERO {
+    if !super::brdf::has_specular_lobe(sp.specular) {
         if !want_d {
             return zero;
         }
