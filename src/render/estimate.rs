@@ -12,10 +12,12 @@ use super::gbuffer::{GSample, PixelKind};
 use super::mode::Mode;
 use super::shadow::{ShadowBatch, ShadowRay};
 use super::world::World;
+use crate::denoise::luminance;
 use crate::sampling::brdf_sample::{brdf_pdf_local, sample_brdf, spec_lobe_probability};
 use crate::sampling::light::{LightSampler, sample_light_area_uniform};
 use crate::sampling::sequence::{sample_1d, sample_2d};
 use crate::shading::brdf::{Frame, alpha_from_roughness, eval_local};
+use crate::shading::u_batch::{BatchLight, LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch};
 use crate::shading::{SurfacePoint, unshadowed_lobes_prepared};
 use glam::Vec3;
 
@@ -74,6 +76,56 @@ pub fn analytic_u_lobes(world: &World, g: &GSample, per_light: &mut [Vec3]) -> (
         specular += s;
     }
     (total, specular)
+}
+
+/// `analytic_u_lobes` for every pixel of a band, eight pixels at a time
+/// through the batched `U` (`shading::u_batch`; lanes it cannot vouch for
+/// take the scalar path): `per_light[k * lights + i]` gets light `i` at
+/// pixel `k`, `u[k]` their sum and `spec_share[k]` the specular lobe's share
+/// of it (luminance; 0 where `U` is 0). Zero off surfaces.
+pub fn analytic_u_band(
+    world: &World,
+    gbuf: &[GSample],
+    per_light: &mut [Vec3],
+    u: &mut [Vec3],
+    spec_share: &mut [f32],
+) -> LaneCounts {
+    let lights: Vec<BatchLight> = world.scene.lights.iter().map(BatchLight::new).collect();
+    let n = lights.len();
+    let mut counts = LaneCounts::default();
+    let mut lobes = LaneLobes::default();
+    for (chunk, g) in gbuf.chunks(LANES).enumerate() {
+        let k0 = chunk * LANES;
+        let points: [Option<SurfacePoint>; LANES] = std::array::from_fn(|l| {
+            g.get(l)
+                .filter(|g| g.kind == PixelKind::Surface)
+                .map(surface_point)
+        });
+        let batch = PixelBatch::new(&points);
+        let mut total = [Vec3::ZERO; LANES];
+        let mut specular = [Vec3::ZERO; LANES];
+        for (i, light) in lights.iter().enumerate() {
+            let c = lobes_batch(&batch, light, &mut lobes);
+            counts.fast += c.fast;
+            counts.scalar += c.scalar;
+            for l in 0..g.len() {
+                let (d, s) = lobes.lane(l);
+                per_light[(k0 + l) * n + i] = d + s;
+                total[l] += d + s;
+                specular[l] += s;
+            }
+        }
+        for l in 0..g.len() {
+            u[k0 + l] = total[l];
+            let lt = luminance(total[l]);
+            spec_share[k0 + l] = if lt > 0.0 {
+                luminance(specular[l]) / lt
+            } else {
+                0.0
+            };
+        }
+    }
+    counts
 }
 
 /// Which light a sample goes to: in proportion to the luminance of the

@@ -2,13 +2,13 @@
 //! per band of rows over rayon, then composite. Frame state that outlives a
 //! frame (previous camera, reference accumulation) lives here too.
 
-use super::estimate::{Estimator, analytic_u_lobes, draw_samples, ratio};
+use super::estimate::{Estimator, analytic_u_band, draw_samples, ratio};
 use super::gbuffer::{GSample, PixelKind};
 use super::mode::Mode;
 use super::primary::{PACKET_H, PixelOffset, trace_rows};
 use super::shadow::{PacketWidth, ShadowBatch};
 use super::world::World;
-use crate::denoise::{DenoiseSettings, Denoiser, GuideBuffers, Lobe, luminance};
+use crate::denoise::{DenoiseSettings, Denoiser, GuideBuffers, Lobe};
 use crate::scene::{Camera, CameraFrame};
 use crate::shading::brdf::alpha_from_roughness;
 use glam::{Vec2, Vec3};
@@ -81,20 +81,13 @@ impl BandJob<'_, '_> {
         let lights = world.scene.lights.len();
         scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
         scratch.spec_share.resize(gbuf.len(), 0.0);
-        for (k, (g, u)) in gbuf.iter().zip(u.iter_mut()).enumerate() {
-            let (total, specular) = analytic_u_lobes(
-                world,
-                g,
-                &mut scratch.per_light[k * lights..(k + 1) * lights],
-            );
-            *u = total;
-            let lt = luminance(total);
-            scratch.spec_share[k] = if lt > 0.0 {
-                luminance(specular) / lt
-            } else {
-                0.0
-            };
-        }
+        analytic_u_band(
+            world,
+            gbuf,
+            &mut scratch.per_light,
+            u,
+            &mut scratch.spec_share,
+        );
         let t = PhaseClock::add(&clock.u, t);
         un.fill(Vec3::ZERO);
         sn.fill(Vec3::ZERO);

@@ -28,6 +28,7 @@
 //! its divisions merged (a unit test checks it against `brdf::spec_local`),
 //! and a rational `atan` for the solid angles (max error 0.005 rad).
 
+use super::lanes::{self, F8, V8, add3, cross, dot, scale3};
 use super::ltc::LtcCell;
 use super::polygon::MAX_VERTICES;
 use glam::{DVec3, Vec3};
@@ -282,6 +283,165 @@ fn factor(qf: f32, qg: f32, share: f32, mag: f32) -> f32 {
     } else {
         1.0
     }
+}
+
+/// The correction's per-lane constants for a batch of pixels
+/// (`lobe_factors_lanes`): each lane's two lobe models and exact lobes, as
+/// `lobe_factors` builds them for one pixel.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CorrectionLanes {
+    ma: [F8; 4],
+    kda: F8,
+    kca: F8,
+    maga: F8,
+    mb: [F8; 4],
+    kdb: F8,
+    kcb: F8,
+    magb: F8,
+    wox: F8,
+    woz: F8,
+    a2: F8,
+    lo2: F8,
+    k: F8,
+}
+
+impl CorrectionLanes {
+    /// Lane `l` from its table cell, view `(sin θv, 0, cos θv)` and GGX alpha.
+    pub fn new(
+        cells: &[LtcCell; lanes::LANES],
+        wo: &[Vec3; lanes::LANES],
+        alpha: &[f32; lanes::LANES],
+    ) -> Self {
+        let models: [(LobeModel, LobeModel); lanes::LANES] =
+            std::array::from_fn(|l| LobeModel::pair(&cells[l]));
+        let exact: [ExactLobes; lanes::LANES] =
+            std::array::from_fn(|l| ExactLobes::new(wo[l], alpha[l]));
+        let a = |k: usize| F8::from_fn(|l| models[l].0.m[k]);
+        let b = |k: usize| F8::from_fn(|l| models[l].1.m[k]);
+        CorrectionLanes {
+            ma: [a(0), a(1), a(2), a(3)],
+            kda: F8::from_fn(|l| models[l].0.kd),
+            kca: F8::from_fn(|l| models[l].0.kc),
+            maga: F8::from_fn(|l| models[l].0.mag),
+            mb: [b(0), b(1), b(2), b(3)],
+            kdb: F8::from_fn(|l| models[l].1.kd),
+            kcb: F8::from_fn(|l| models[l].1.kc),
+            magb: F8::from_fn(|l| models[l].1.mag),
+            wox: F8::from_fn(|l| exact[l].wo.x),
+            woz: F8::from_fn(|l| exact[l].wo.z),
+            a2: F8::from_fn(|l| exact[l].a2),
+            lo2: F8::from_fn(|l| exact[l].lo2),
+            k: F8::from_fn(|l| exact[l].k),
+        }
+    }
+}
+
+/// `LobeModel::value` per lane.
+#[inline(always)]
+fn model_lanes(m: &[F8; 4], kd: F8, kc: F8, w: &V8) -> F8 {
+    let ox = m[0].mul_add(w[0], m[1] * w[2]);
+    let oz = m[2].mul_add(w[0], m[3] * w[2]);
+    let l2 = ox.mul_add(ox, w[1].mul_add(w[1], oz * oz));
+    kc.mul_add(
+        w[2],
+        kd * oz.max(F8::ZERO) / (l2 * l2).max(F8::splat(1e-30)),
+    )
+}
+
+/// `ExactLobes::eval` per lane.
+#[inline(always)]
+fn exact_lanes(k: &CorrectionLanes, w: &V8) -> (F8, F8) {
+    let h = [w[0] + k.wox, w[1], w[2] + k.woz];
+    let l2 = dot(&h, &h).max(F8::splat(1e-30));
+    let hxy = h[0].mul_add(h[0], h[1] * h[1]);
+    let q = (k.a2 * h[2]).mul_add(h[2], hxy);
+    let c = w[2].max(F8::splat(MIN_COS));
+    let wxy = w[0].mul_add(w[0], w[1] * w[1]);
+    let t = c.mul_add(c, k.a2 * wxy).sqrt();
+    let num = k.a2 * l2 * l2 * w[2];
+    let den = (k.k * q * q * c.mul_add(k.lo2, t)).max(F8::splat(1e-30));
+    let len = l2.sqrt();
+    let inv = F8::ONE / (den * len);
+    let a = num * len * inv;
+    let wo_w = k.wox.mul_add(w[0], k.woz * w[2]);
+    let cos_oh = (wo_w + F8::ONE) * den * inv;
+    let m = F8::ONE - cos_oh.clamp(0.0, 1.0);
+    let m2 = m * m;
+    (a, a * m2 * m2 * m)
+}
+
+/// `atan2_pos` per lane (the same octant reduction, as selects).
+#[inline(always)]
+fn atan2_pos_lanes(y: F8, x: F8) -> F8 {
+    let steep = x.abs().lt(y);
+    let num = steep.select(-x, y);
+    let den = steep.select(y, x);
+    let base = steep.select(
+        F8::splat(FRAC_PI_2),
+        x.lt(F8::ZERO).select(F8::splat(PI), F8::ZERO),
+    );
+    let d = den.mul_add(den, F8::splat(0.28086) * num * num);
+    base + num * den / d.max(F8::splat(1e-30))
+}
+
+/// `lobe_factors` for eight pixels at once, across pixels: lane `l` is one
+/// pixel's light polygon (never clipped: the batch sends clipped lanes to
+/// the scalar path), given by its `N` unit vertices `u` (zero for a vertex
+/// at the shading point) and the cosines `dots[i] = u[i] . u[i + 1]`, which
+/// the Lambert contour sum has computed already. Same nodes, weights and
+/// fades as `lobe_factors`; `tests/u_batch.rs` checks the two agree.
+#[inline(always)]
+pub fn lobe_factors_lanes<const N: usize>(
+    u: &[V8; N],
+    dots: &[F8; N],
+    k: &CorrectionLanes,
+    share_a: F8,
+    share_b: F8,
+) -> (F8, F8) {
+    let mut c = [F8::ZERO; 3];
+    for v in u {
+        c = add3(&c, v);
+    }
+    let c = scale3(&c, F8::ONE / dot(&c, &c).max(F8::splat(1e-30)).sqrt());
+    let cu: [F8; N] = std::array::from_fn(|i| dot(&c, &u[i]));
+    let mut sums = [F8::ZERO; 4];
+    for i in 0..N {
+        let j = if i + 1 == N { 0 } else { i + 1 };
+        let (a, b) = (&u[i], &u[j]);
+        let num = dot(&c, &cross(a, b)).abs();
+        let den = F8::ONE + cu[i] + dots[i] + cu[j];
+        let omega = F8::splat(2.0) * atan2_pos_lanes(num, den);
+        let m = add3(&add3(&c, a), b);
+        let w = scale3(&m, F8::ONE / dot(&m, &m).max(F8::splat(1e-30)).sqrt());
+        let wt = w[2].gt(F8::ZERO).select(omega, F8::ZERO);
+        let (ea, eb) = exact_lanes(k, &w);
+        sums[0] = wt.mul_add(ea, sums[0]);
+        sums[1] = wt.mul_add(eb, sums[1]);
+        sums[2] = wt.mul_add(model_lanes(&k.ma, k.kda, k.kca, &w), sums[2]);
+        sums[3] = wt.mul_add(model_lanes(&k.mb, k.kdb, k.kcb, &w), sums[3]);
+    }
+    (
+        factor_lanes(sums[0], sums[2], share_a, k.maga),
+        factor_lanes(sums[1], sums[3], share_b, k.magb),
+    )
+}
+
+/// `factor` per lane.
+#[inline(always)]
+fn factor_lanes(qf: F8, qg: F8, share: F8, mag: F8) -> F8 {
+    let s = share.clamp(0.0, 1.0);
+    let ltc = s * mag;
+    let inv = F8::ONE / (qg * ltc);
+    let r = (qf * ltc * inv).min(F8::splat(MAX_RATIO));
+    let trust = (F8::ONE - (qg * qg * inv - F8::ONE).abs() * F8::splat(1.0 / TRUST)).max(F8::ZERO);
+    let k = F8::ONE + (r - F8::ONE) * trust * (F8::ONE - s);
+    let ok = qg
+        .gt(F8::ZERO)
+        .and(ltc.gt(F8::ZERO))
+        .and(qf.ge(F8::ZERO))
+        .and(inv.finite())
+        .and(k.finite());
+    ok.select(k.clamp(0.0, MAX_RATIO), F8::ONE)
 }
 
 #[cfg(test)]

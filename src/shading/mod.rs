@@ -2,11 +2,13 @@
 //! factor + LTC for GGX) on polygonal lights, and the project's LTC fit.
 
 pub mod brdf;
+pub mod lanes;
 pub mod ltc;
 pub mod ltc_correction;
 pub mod ltc_fit;
 pub mod nelder_mead;
 pub mod polygon;
+pub mod u_batch;
 pub mod unshadowed;
 
 pub use unshadowed::{

@@ -1,0 +1,277 @@
+//! Eight `f32` lanes, one per pixel, for the batched `U` (`u_batch`) and its
+//! shape correction (`ltc_correction::lobe_factors_lanes`).
+//!
+//! Every operation is a fixed loop over the eight elements, inlined always,
+//! which LLVM turns into one vector instruction (AVX2 with the x86-64-v3
+//! build of `.cargo/config.toml`, two SSE2 instructions otherwise): no
+//! intrinsics, no `unsafe`. Comparisons give a mask `M8` of all-ones /
+//! all-zeros bit patterns, and selects are bitwise, so lanes never branch.
+
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// Pixels per batch.
+pub const LANES: usize = 8;
+
+/// One `f32` per lane.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(32))]
+pub struct F8(pub [f32; LANES]);
+
+/// One lane mask: `!0` (true) or `0` (false) per lane.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C, align(32))]
+pub struct M8(pub [u32; LANES]);
+
+#[inline(always)]
+fn each<T: Copy + Default, const K: usize>(f: impl Fn(usize) -> T) -> [T; K] {
+    let mut a = [T::default(); K];
+    for (i, x) in a.iter_mut().enumerate() {
+        *x = f(i);
+    }
+    a
+}
+
+#[inline(always)]
+fn bit(b: bool) -> u32 {
+    if b { !0 } else { 0 }
+}
+
+impl F8 {
+    pub const ZERO: F8 = F8([0.0; LANES]);
+    pub const ONE: F8 = F8([1.0; LANES]);
+
+    #[inline(always)]
+    pub fn splat(x: f32) -> F8 {
+        F8([x; LANES])
+    }
+
+    /// Lane `l` from `f(l)`.
+    #[inline(always)]
+    pub fn from_fn(f: impl Fn(usize) -> f32) -> F8 {
+        F8(each(f))
+    }
+
+    #[inline(always)]
+    pub fn map(self, f: impl Fn(f32) -> f32) -> F8 {
+        F8(each(|l| f(self.0[l])))
+    }
+
+    #[inline(always)]
+    pub fn zip(self, o: F8, f: impl Fn(f32, f32) -> f32) -> F8 {
+        F8(each(|l| f(self.0[l], o.0[l])))
+    }
+
+    /// `self * b + c`: one fused instruction where the target has FMA;
+    /// a multiply and an add otherwise (`f32::mul_add` would be a library
+    /// call per lane there).
+    #[inline(always)]
+    pub fn mul_add(self, b: F8, c: F8) -> F8 {
+        #[cfg(target_feature = "fma")]
+        {
+            F8(each(|l| self.0[l].mul_add(b.0[l], c.0[l])))
+        }
+        #[cfg(not(target_feature = "fma"))]
+        {
+            self * b + c
+        }
+    }
+
+    #[inline(always)]
+    pub fn abs(self) -> F8 {
+        self.map(f32::abs)
+    }
+
+    #[inline(always)]
+    pub fn sqrt(self) -> F8 {
+        self.map(f32::sqrt)
+    }
+
+    /// Lane-wise minimum (`minps` semantics: written as a compare-select so
+    /// no NaN handling is added).
+    #[inline(always)]
+    pub fn min(self, o: F8) -> F8 {
+        self.zip(o, |a, b| if a < b { a } else { b })
+    }
+
+    #[inline(always)]
+    pub fn max(self, o: F8) -> F8 {
+        self.zip(o, |a, b| if a > b { a } else { b })
+    }
+
+    #[inline(always)]
+    pub fn clamp(self, lo: f32, hi: f32) -> F8 {
+        self.max(F8::splat(lo)).min(F8::splat(hi))
+    }
+
+    #[inline(always)]
+    pub fn lt(self, o: F8) -> M8 {
+        M8(each(|l| bit(self.0[l] < o.0[l])))
+    }
+
+    #[inline(always)]
+    pub fn le(self, o: F8) -> M8 {
+        M8(each(|l| bit(self.0[l] <= o.0[l])))
+    }
+
+    #[inline(always)]
+    pub fn gt(self, o: F8) -> M8 {
+        o.lt(self)
+    }
+
+    #[inline(always)]
+    pub fn ge(self, o: F8) -> M8 {
+        o.le(self)
+    }
+
+    /// Finite lanes (not NaN, not infinite).
+    #[inline(always)]
+    pub fn finite(self) -> M8 {
+        self.abs().lt(F8::splat(f32::INFINITY))
+    }
+
+    /// Sum over the lanes.
+    #[inline(always)]
+    pub fn sum(self) -> f32 {
+        self.0.iter().sum()
+    }
+}
+
+impl M8 {
+    pub const NONE: M8 = M8([0; LANES]);
+    pub const ALL: M8 = M8([!0; LANES]);
+
+    #[inline(always)]
+    pub fn from_fn(f: impl Fn(usize) -> bool) -> M8 {
+        M8(each(|l| bit(f(l))))
+    }
+
+    /// `a` where the mask is set, `b` elsewhere.
+    #[inline(always)]
+    pub fn select(self, a: F8, b: F8) -> F8 {
+        F8(each(|l| {
+            f32::from_bits((a.0[l].to_bits() & self.0[l]) | (b.0[l].to_bits() & !self.0[l]))
+        }))
+    }
+
+    #[inline(always)]
+    pub fn and(self, o: M8) -> M8 {
+        M8(each(|l| self.0[l] & o.0[l]))
+    }
+
+    #[inline(always)]
+    pub fn or(self, o: M8) -> M8 {
+        M8(each(|l| self.0[l] | o.0[l]))
+    }
+
+    /// `self` and not `o`.
+    #[inline(always)]
+    pub fn and_not(self, o: M8) -> M8 {
+        M8(each(|l| self.0[l] & !o.0[l]))
+    }
+
+    #[inline(always)]
+    pub fn invert(self) -> M8 {
+        M8(each(|l| !self.0[l]))
+    }
+
+    #[inline(always)]
+    pub fn any(self) -> bool {
+        self.0.iter().fold(0, |a, &b| a | b) != 0
+    }
+
+    #[inline(always)]
+    pub fn lane(self, l: usize) -> bool {
+        self.0[l] != 0
+    }
+}
+
+impl Add for F8 {
+    type Output = F8;
+    #[inline(always)]
+    fn add(self, o: F8) -> F8 {
+        self.zip(o, |a, b| a + b)
+    }
+}
+
+impl Sub for F8 {
+    type Output = F8;
+    #[inline(always)]
+    fn sub(self, o: F8) -> F8 {
+        self.zip(o, |a, b| a - b)
+    }
+}
+
+impl Mul for F8 {
+    type Output = F8;
+    #[inline(always)]
+    fn mul(self, o: F8) -> F8 {
+        self.zip(o, |a, b| a * b)
+    }
+}
+
+impl Div for F8 {
+    type Output = F8;
+    #[inline(always)]
+    fn div(self, o: F8) -> F8 {
+        self.zip(o, |a, b| a / b)
+    }
+}
+
+impl Neg for F8 {
+    type Output = F8;
+    #[inline(always)]
+    fn neg(self) -> F8 {
+        self.map(|a| -a)
+    }
+}
+
+/// A vector of lanes: `[x, y, z]`.
+pub type V8 = [F8; 3];
+
+#[inline(always)]
+pub fn dot(a: &V8, b: &V8) -> F8 {
+    a[0].mul_add(b[0], a[1].mul_add(b[1], a[2] * b[2]))
+}
+
+#[inline(always)]
+pub fn cross(a: &V8, b: &V8) -> V8 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+#[inline(always)]
+pub fn add3(a: &V8, b: &V8) -> V8 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+#[inline(always)]
+pub fn scale3(a: &V8, s: F8) -> V8 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn select_min_max_and_finite_act_per_lane() {
+        let a = F8::from_fn(|l| l as f32 - 3.5);
+        let b = F8::splat(0.0);
+        let m = a.lt(b);
+        assert_eq!(
+            m.select(a, b).0,
+            [-3.5, -2.5, -1.5, -0.5, 0.0, 0.0, 0.0, 0.0]
+        );
+        assert_eq!(a.min(b), m.select(a, b));
+        assert_eq!(a.max(b), m.select(b, a));
+        let mut c = a;
+        c.0[2] = f32::NAN;
+        c.0[5] = f32::INFINITY;
+        let f = c.finite();
+        assert!(!f.lane(2) && !f.lane(5) && f.lane(0) && f.lane(7));
+        assert!(m.any() && !M8::NONE.any());
+    }
+}

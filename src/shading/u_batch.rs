@@ -1,0 +1,663 @@
+//! The analytic unshadowed light `U` of `unshadowed` for eight pixels at a
+//! time, one pixel per `f32` lane (`lanes::F8`), branch-free within a batch:
+//! the three contour sums (the Lambert form factor and the two LTC lobes),
+//! the clipping of the LTC images to their horizon, and the LTC shape
+//! correction (`ltc_correction::lobe_factors_lanes`) all run across pixels.
+//!
+//! Per batch, what does not depend on the light is set up once, lane by
+//! lane in scalar code: the shading frame, the LTC cell (a table lookup is
+//! loads) and the correction's constants. Per light, the vertices are taken
+//! one at a time into the local frame; each contour sum is a loop over the
+//! edges with running sums.
+//!
+//! Which lanes stay here. A lane goes to the scalar `f64` path
+//! (`unshadowed_lobes_prepared`, whose answer it then has exactly) when its
+//! light straddles its horizon (the Lambert polygon would need clipping
+//! before the LTC images are taken: rare, and kept out of the vector code),
+//! when it lies (nearly) in the light's plane, or when its `f32` result
+//! cannot be vouched for: each edge term is computed from a vertex and the
+//! light's edge vector (`a x b = a x (b - a)`), so it carries a few `f32`
+//! ulps of its own size; what is left is the cancellation between edges
+//! (small lights seen off-axis), which each lane bounds (`ERR_ULPS` ulps
+//! plus the `theta/sin` polynomial's error, of the sum of the edge terms'
+//! magnitudes) and compares with `REL_TOL` of its `U` in every channel and
+//! of its Lambert lobe. Lanes unlit or entirely under the horizon get
+//! exactly 0, as in the scalar path. `tests/u_batch.rs` checks the result
+//! against the scalar path.
+
+use super::brdf::{Frame, alpha_from_roughness, has_specular_lobe};
+use super::lanes::{F8, M8, V8, dot};
+use super::ltc::{self, LtcCell};
+use super::ltc_correction::{CorrectionLanes, lobe_factors_lanes};
+use super::polygon::MAX_LIGHT_VERTICES;
+use super::unshadowed::{ShadingLight, SurfacePoint, unshadowed_lobes_prepared};
+use crate::scene::Light;
+use glam::Vec3;
+use std::f32::consts::PI;
+
+pub use super::lanes::LANES;
+
+/// Relative error of a lane's lobes (against the `f64` path) that the fast
+/// path accepts; above it the lane goes to the scalar path.
+pub const REL_TOL: f32 = 2e-4;
+/// Rounding of one edge term, in `f32` ulps of its magnitude bound (vertex
+/// and edge rounding, rotation, LTC map, cross and dot products).
+const ERR_ULPS: f32 = 16.0;
+/// A point this close to the light's plane (relative to its distance) is
+/// decided by the scalar path: the `f32` side test could round either way.
+const SIDE_TOL: f32 = 1e-5;
+
+/// A light as the batch reads it: `f32` vertices and edge vectors (each edge
+/// rounded once from its exact `f64` difference), plane, sidedness, and the
+/// light prepared for the scalar path (for the lanes sent there).
+#[derive(Clone, Copy, Debug)]
+pub struct BatchLight {
+    /// Vertex count; 0 for a light that cannot emit (as `ShadingLight`).
+    n: usize,
+    v: [[f32; 3]; MAX_LIGHT_VERTICES],
+    e: [[f32; 3]; MAX_LIGHT_VERTICES],
+    normal: [f32; 3],
+    radiance: Vec3,
+    two_sided: bool,
+    scalar: ShadingLight,
+}
+
+impl BatchLight {
+    pub fn new(light: &Light) -> BatchLight {
+        let mut n = light.vertices.len().min(MAX_LIGHT_VERTICES);
+        let mut v = [[0.0; 3]; MAX_LIGHT_VERTICES];
+        let mut e = [[0.0; 3]; MAX_LIGHT_VERTICES];
+        for i in 0..n {
+            let (a, b) = (light.vertices[i], light.vertices[(i + 1) % n]);
+            v[i] = a.to_array();
+            e[i] = (b.as_dvec3() - a.as_dvec3()).as_vec3().to_array();
+        }
+        if n < 3 || light.radiance == Vec3::ZERO {
+            n = 0;
+        }
+        BatchLight {
+            n,
+            v,
+            e,
+            normal: light.normal.to_array(),
+            radiance: light.radiance,
+            two_sided: light.two_sided,
+            scalar: ShadingLight::new(light),
+        }
+    }
+}
+
+/// Up to `LANES` shading points with what does not depend on the light.
+pub struct PixelBatch {
+    sp: [SurfacePoint; LANES],
+    /// Lanes that hold a point (the rest of a row's last batch is padding).
+    active: M8,
+    p: V8,
+    /// Rows of each lane's local frame: x, y, z (= normal), world vectors.
+    frame: [V8; 3],
+    kd: V8,
+    ks: V8,
+    /// Lanes with a specular lobe, and those of them whose LTC lobes A (F0)
+    /// and B (Schlick) carry weight.
+    lobe: M8,
+    want_a: M8,
+    want_b: M8,
+    /// `M^-1` of lobe A and of lobe B: m00, m02, m20, m22; their infinity
+    /// norms (for the error bound).
+    ma: [F8; 4],
+    mb: [F8; 4],
+    norm_a: F8,
+    norm_b: F8,
+    /// Each lobe's LTC integral and cosine share: `share = w ltc + mix ff`.
+    wa: F8,
+    mix: F8,
+    wb: F8,
+    fmix: F8,
+    mag: F8,
+    fres: F8,
+    corr: CorrectionLanes,
+}
+
+impl PixelBatch {
+    /// `points[l]` for each lane `l` that has one (at most `LANES`).
+    pub fn new(points: &[Option<SurfacePoint>]) -> PixelBatch {
+        let blank = SurfacePoint {
+            p: Vec3::ZERO,
+            n: Vec3::Z,
+            wo: Vec3::Z,
+            diffuse: Vec3::ZERO,
+            specular: Vec3::ZERO,
+            roughness: 1.0,
+        };
+        let mut sp = [blank; LANES];
+        let mut active = [false; LANES];
+        for (l, p) in points.iter().take(LANES).enumerate() {
+            if let Some(p) = p {
+                sp[l] = *p;
+                active[l] = true;
+            }
+        }
+        // Lanes without a specular lobe get a harmless cell (its lobes are
+        // masked off): identity matrices, unit masses, no magnitude.
+        let blank_cell = LtcCell {
+            m00: 1.0,
+            m22: 1.0,
+            f00: 1.0,
+            f22: 1.0,
+            hmass: 1.0,
+            fhmass: 1.0,
+            ..LtcCell::default()
+        };
+        let mut cell = [blank_cell; LANES];
+        let mut frames = [Frame {
+            x: Vec3::X,
+            y: Vec3::Y,
+            z: Vec3::Z,
+        }; LANES];
+        let mut lobe = [false; LANES];
+        let mut wo = [Vec3::Z; LANES];
+        let mut alpha = [1.0f32; LANES];
+        for l in 0..LANES {
+            let s = &sp[l];
+            if !active[l] {
+                continue;
+            }
+            // The scalar path's own frame, lookup and view: identical values.
+            frames[l] = Frame::from_normal_view(s.n, s.wo);
+            if has_specular_lobe(s.specular) {
+                lobe[l] = true;
+                let cos_v = s.n.dot(s.wo);
+                cell[l] = ltc::packed_table().lookup(s.roughness, cos_v);
+                let c = cos_v.clamp(0.0, 1.0);
+                wo[l] = Vec3::new((1.0 - c * c).sqrt(), 0.0, c);
+                alpha[l] = alpha_from_roughness(s.roughness);
+            }
+        }
+        let lane3 = |f: &[Vec3; LANES]| -> V8 {
+            [
+                F8::from_fn(|l| f[l].x),
+                F8::from_fn(|l| f[l].y),
+                F8::from_fn(|l| f[l].z),
+            ]
+        };
+        let cells = cell.map(|c| c.to_array());
+        let cf = |k: usize| F8::from_fn(|l| cells[l][k]);
+        let ma = [cf(0), cf(1), cf(2), cf(3)];
+        let mb = [cf(7), cf(8), cf(9), cf(10)];
+        let norm = |m: &[F8; 4]| {
+            (m[0].abs() + m[1].abs())
+                .max(m[2].abs() + m[3].abs())
+                .max(F8::ONE)
+        };
+        let lobe = M8::from_fn(|l| lobe[l]);
+        PixelBatch {
+            active: M8::from_fn(|l| active[l]),
+            p: lane3(&sp.map(|s| s.p)),
+            frame: [
+                lane3(&frames.map(|f| f.x)),
+                lane3(&frames.map(|f| f.y)),
+                lane3(&frames.map(|f| f.z)),
+            ],
+            kd: lane3(&sp.map(|s| s.diffuse)),
+            ks: lane3(&sp.map(|s| s.specular)),
+            lobe,
+            want_a: lobe.and(M8::from_fn(|l| sp[l].specular.max_element() > 0.0)),
+            want_b: lobe.and(M8::from_fn(|l| sp[l].specular.min_element() < 1.0)),
+            norm_a: norm(&ma),
+            norm_b: norm(&mb),
+            ma,
+            mb,
+            wa: (F8::ONE - cf(6)) / cf(5),
+            mix: cf(6),
+            wb: (F8::ONE - cf(13)) / cf(12),
+            fmix: cf(13),
+            mag: cf(4),
+            fres: cf(11),
+            corr: CorrectionLanes::new(&cell, &wo, &alpha),
+            sp,
+        }
+    }
+
+    /// The shading point of lane `l`, if any.
+    pub fn point(&self, l: usize) -> Option<&SurfacePoint> {
+        self.active.lane(l).then_some(&self.sp[l])
+    }
+}
+
+/// (diffuse, specular) lobes per lane, one `[f32; LANES]` per channel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LaneLobes {
+    pub diffuse: [[f32; LANES]; 3],
+    pub specular: [[f32; LANES]; 3],
+}
+
+impl LaneLobes {
+    /// Lane `l` as `(diffuse, specular)`.
+    #[inline]
+    pub fn lane(&self, l: usize) -> (Vec3, Vec3) {
+        let [d, s] = [&self.diffuse, &self.specular].map(|c| Vec3::new(c[0][l], c[1][l], c[2][l]));
+        (d, s)
+    }
+
+    #[inline]
+    fn set_lane(&mut self, l: usize, (d, s): (Vec3, Vec3)) {
+        for k in 0..3 {
+            self.diffuse[k][l] = d[k];
+            self.specular[k][l] = s[k];
+        }
+    }
+}
+
+/// How the lanes of one or more batches went, for tests and measurements.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LaneCounts {
+    /// Lanes finished on the fast path (including unlit ones).
+    pub fast: u64,
+    /// Lanes handed to the scalar path.
+    pub scalar: u64,
+}
+
+/// (diffuse, specular) lobes of `light` for every lane of `batch`, as
+/// `unshadowed_lobes_prepared` gives them (zero for inactive lanes).
+pub fn lobes_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) -> LaneCounts {
+    match light.n {
+        3 => lobes_n::<3>(batch, light, out),
+        4 => lobes_n::<4>(batch, light, out),
+        5 => lobes_n::<5>(batch, light, out),
+        6 => lobes_n::<6>(batch, light, out),
+        7 => lobes_n::<7>(batch, light, out),
+        8 => lobes_n::<8>(batch, light, out),
+        _ => {
+            *out = LaneLobes::default();
+            LaneCounts {
+                fast: count(batch.active),
+                scalar: 0,
+            }
+        }
+    }
+}
+
+fn count(m: M8) -> u64 {
+    m.0.iter().filter(|&&b| b != 0).count() as u64
+}
+
+#[inline(always)]
+fn splat3(v: [f32; 3]) -> V8 {
+    [F8::splat(v[0]), F8::splat(v[1]), F8::splat(v[2])]
+}
+
+/// `d` in the local frame whose rows (world vectors) are `frame`.
+#[inline(always)]
+fn rotate(frame: &[V8; 3], d: &V8) -> V8 {
+    [dot(&frame[0], d), dot(&frame[1], d), dot(&frame[2], d)]
+}
+
+/// The LTC image `M^-1 v` (m = m00, m02, m20, m22).
+#[inline(always)]
+fn ltc_map(m: &[F8; 4], v: &V8) -> V8 {
+    [
+        m[0].mul_add(v[0], m[1] * v[2]),
+        v[1],
+        m[2].mul_add(v[0], m[3] * v[2]),
+    ]
+}
+
+/// `1 / |v|` per lane (a zero vector stays finite: its edges add 0).
+#[inline(always)]
+fn inv_len(v: &V8) -> F8 {
+    F8::ONE / dot(v, v).max(F8::splat(f32::MIN_POSITIVE)).sqrt()
+}
+
+/// `acos(x) / sqrt(1 - x^2)` on x in [0, 1] in `f32`: degree 7 in
+/// `t = 2x - 1` (Chebyshev interpolation, max relative error 4.8e-7, a few
+/// `f32` ulps: the lowest degree whose error is below the rounding the
+/// error bound already allows; degree 6 is at 2.9e-6, a test checks this
+/// one), Estrin's scheme.
+#[allow(clippy::excessive_precision)]
+pub const THETA_SIN_POLY_F32: [f32; 8] = [
+    1.209_199_1,
+    -0.263_599_98,
+    0.069_749_49,
+    -0.019_842_301,
+    0.005_781_520_4,
+    -0.001_747_600_4,
+    0.000_667_519_58,
+    -0.000_208_102_75,
+];
+/// Its relative error bound, carried into each lane's error bound.
+const POLY_ERR: f32 = 5e-7;
+
+/// `theta / sin(theta)` for `x = cos(theta)` in [0, 1], one lane.
+#[inline(always)]
+pub fn theta_over_sin_pos_f32(x: f32) -> f32 {
+    let c = &THETA_SIN_POLY_F32;
+    let t = 2.0 * x - 1.0;
+    let t2 = t * t;
+    let q0 = (c[0] + c[1] * t) + (c[2] + c[3] * t) * t2;
+    let q1 = (c[4] + c[5] * t) + (c[6] + c[7] * t) * t2;
+    q0 + q1 * (t2 * t2)
+}
+
+#[inline(always)]
+fn theta_over_sin_pos(x: F8) -> F8 {
+    x.map(theta_over_sin_pos_f32)
+}
+
+/// `theta / sin(theta)` for x in [-1, 1] (already clamped): below 0,
+/// `pi / sin - theta' / sin`, as `polygon::theta_over_sin`.
+#[inline(always)]
+fn theta_over_sin(x: F8) -> F8 {
+    let p = theta_over_sin_pos(x.abs());
+    let s = ((F8::ONE - x) * (F8::ONE + x)).max(F8::splat(1e-30)).sqrt();
+    let far = F8::splat(PI) / s - p;
+    x.ge(F8::ZERO).select(p, far)
+}
+
+/// One edge from `a` (inverse length `ia`) along `e` to `b` (inverse length
+/// `ib`): its cosine (clamped), its `z . (a x b) / (|a| |b|)` and the
+/// magnitude its rounding error scales with.
+#[inline(always)]
+fn edge_parts(a: &V8, b: &V8, e: &V8, ia: F8, ib: F8) -> (F8, F8, F8) {
+    let w = ia * ib;
+    let d = (dot(a, b) * w).clamp(-1.0, 1.0);
+    // (a x b).z = (a x (b - a)).z: no cancellation between near-equal vertices.
+    let cz = a[0].mul_add(e[1], -(a[1] * e[0])) * w;
+    let size = (e[0].abs() + e[1].abs() + e[2].abs()) * ib;
+    (d, cz, size)
+}
+
+/// `sum theta/sin(theta) cz` and `sum theta/sin(theta) size` over edges.
+/// The `pi / sin` branch of theta/sin is taken only when some lane that
+/// counts (`live`) has an edge wider than 90 degrees (rare: very wide
+/// polygons).
+#[inline(always)]
+fn sum_terms<const K: usize>(dot: &[F8; K], cz: &[F8; K], size: &[F8; K], live: M8) -> (F8, F8) {
+    let mut wide = M8::NONE;
+    for d in dot {
+        wide = wide.or(d.lt(F8::ZERO));
+    }
+    let wide = wide.and(live).any();
+    let mut sum = F8::ZERO;
+    let mut bound = F8::ZERO;
+    for i in 0..K {
+        let t = if wide {
+            theta_over_sin(dot[i])
+        } else {
+            theta_over_sin_pos(dot[i])
+        };
+        sum = t.mul_add(cz[i], sum);
+        bound = t.mul_add(size[i], bound);
+    }
+    (sum, bound)
+}
+
+/// The Lambert contour sum of the local polygon (`q` vertices, `e` edges;
+/// no vertex below the horizon in the lanes that count), its error bound,
+/// the inverse vertex lengths, the unit vertices and the edge cosines (the
+/// last two feed the shape correction).
+#[allow(clippy::type_complexity)]
+#[inline(always)]
+fn lambert_sum<const N: usize>(
+    q: &[V8; N],
+    e: &[V8; N],
+    live: M8,
+) -> (F8, F8, [F8; N], [V8; N], [F8; N]) {
+    let inv: [F8; N] = std::array::from_fn(|i| inv_len(&q[i]));
+    let mut dots = [F8::ZERO; N];
+    let mut cz = [F8::ZERO; N];
+    let mut size = [F8::ZERO; N];
+    for i in 0..N {
+        let j = if i + 1 == N { 0 } else { i + 1 };
+        (dots[i], cz[i], size[i]) = edge_parts(&q[i], &q[j], &e[i], inv[i], inv[j]);
+    }
+    let (sum, bound) = sum_terms(&dots, &cz, &size, live);
+    let u: [V8; N] =
+        std::array::from_fn(|i| [q[i][0] * inv[i], q[i][1] * inv[i], q[i][2] * inv[i]]);
+    (sum, bound, inv, u, dots)
+}
+
+/// Contour sum of one LTC image (`m` applied to the local polygon), clipped
+/// to its horizon where a lane that counts dips below it; its error bound;
+/// and the factor by which the image magnifies the local rounding.
+#[inline(always)]
+fn ltc_sum<const N: usize>(
+    m: &[F8; 4],
+    norm: F8,
+    q: &[V8; N],
+    e: &[V8; N],
+    inv_l: &[F8; N],
+    live: M8,
+) -> (F8, F8, F8) {
+    let qi: [V8; N] = std::array::from_fn(|i| ltc_map(m, &q[i]));
+    let ei: [V8; N] = std::array::from_fn(|i| ltc_map(m, &e[i]));
+    let inv: [F8; N] = std::array::from_fn(|i| inv_len(&qi[i]));
+    let mut gain = F8::ZERO;
+    let mut clips = M8::NONE;
+    for i in 0..N {
+        gain = gain.max(inv[i] / inv_l[i]);
+        clips = clips.or(qi[i][2].lt(F8::ZERO));
+    }
+    let (sum, bound) = if clips.and(live).any() {
+        clipped_sum(&qi, &ei, &inv, live)
+    } else {
+        let mut dots = [F8::ZERO; N];
+        let mut cz = [F8::ZERO; N];
+        let mut size = [F8::ZERO; N];
+        for i in 0..N {
+            let j = if i + 1 == N { 0 } else { i + 1 };
+            (dots[i], cz[i], size[i]) = edge_parts(&qi[i], &qi[j], &ei[i], inv[i], inv[j]);
+        }
+        sum_terms(&dots, &cz, &size, live)
+    };
+    (sum, bound, gain * norm)
+}
+
+/// The contour sum of the polygon clipped to z >= 0, lane by lane without
+/// branches (the polygon of `polygon::clip_upper_into`): each edge keeps
+/// its part above the horizon (its start or end moved to the crossing, its
+/// edge vector scaled by the crossing parameter, so it keeps its
+/// precision), and one more edge along the horizon joins the exit crossing
+/// to the entry crossing (a convex polygon has at most one of each).
+#[inline(always)]
+fn clipped_sum<const N: usize>(q: &[V8; N], e: &[V8; N], inv_v: &[F8; N], live: M8) -> (F8, F8) {
+    let zero = F8::ZERO;
+    let mut dots = [zero; N];
+    let mut cz = [zero; N];
+    let mut size = [zero; N];
+    let mut exit = [zero; 3];
+    let mut entry = [zero; 3];
+    let mut crossed = M8::NONE;
+    for i in 0..N {
+        let j = if i + 1 == N { 0 } else { i + 1 };
+        let (a, b, ev) = (&q[i], &q[j], &e[i]);
+        let (ina, inb) = (a[2].ge(zero), b[2].ge(zero));
+        // Crossing parameter (used only where the signs differ, so
+        // za - zb is not 0 there).
+        let dz = a[2] - b[2];
+        let dz = dz.abs().gt(zero).select(dz, F8::ONE);
+        let t = (a[2] / dz).clamp(0.0, 1.0);
+        let x = [ev[0].mul_add(t, a[0]), ev[1].mul_add(t, a[1]), zero];
+        let start = [
+            ina.select(a[0], x[0]),
+            ina.select(a[1], x[1]),
+            ina.select(a[2], x[2]),
+        ];
+        let end = [
+            inb.select(b[0], x[0]),
+            inb.select(b[1], x[1]),
+            inb.select(b[2], x[2]),
+        ];
+        // Share of the edge vector kept: 1, t, 1 - t or 0 (one term only).
+        let leaving = ina.and_not(inb);
+        let arriving = inb.and_not(ina);
+        let k = ina.and(inb).select(F8::ONE, zero)
+            + leaving.select(t, zero)
+            + arriving.select(F8::ONE - t, zero);
+        let ek = [ev[0] * k, ev[1] * k, ev[2] * k];
+        let ix = inv_len(&x);
+        let ia = ina.select(inv_v[i], ix);
+        let ib = inb.select(inv_v[j], ix);
+        let (d, c, s) = edge_parts(&start, &end, &ek, ia, ib);
+        let keep = ina.or(inb);
+        dots[i] = d;
+        cz[i] = keep.select(c, zero);
+        size[i] = keep.select(s, zero);
+        for c in 0..3 {
+            exit[c] = leaving.select(x[c], exit[c]);
+            entry[c] = arriving.select(x[c], entry[c]);
+        }
+        crossed = crossed.or(leaving);
+    }
+    let (sum, bound) = sum_terms(&dots, &cz, &size, live);
+    // The horizon edge (exit = entry = 0 where nothing crossed: adds 0).
+    // Its vector is a difference of two rounded crossings: two more ulps
+    // of the edge's own scale in its bound.
+    let (ex, en) = (inv_len(&exit), inv_len(&entry));
+    let along = [entry[0] - exit[0], entry[1] - exit[1], entry[2] - exit[2]];
+    let (d, c, s) = edge_parts(&exit, &entry, &along, ex, en);
+    let s = crossed.select(s + F8::splat(2.0), zero);
+    let (hsum, hbound) = sum_terms(&[d], &[c], &[s], live);
+    (sum + hsum, bound + hbound)
+}
+
+/// `min(|sum| / 2π, 1)`: a contour sum as the form factor of its polygon.
+#[inline(always)]
+fn form_factor(sum: F8) -> F8 {
+    (sum.abs() * F8::splat(0.5 / PI)).min(F8::ONE)
+}
+
+#[inline(always)]
+fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) -> LaneCounts {
+    *out = LaneLobes::default();
+    let p = &b.p;
+    // Side of the light's plane, as the scalar path's `side`.
+    let v0 = splat3(light.v[0]);
+    let d0 = [p[0] - v0[0], p[1] - v0[1], p[2] - v0[2]];
+    let side = dot(&splat3(light.normal), &d0);
+    let reach = d0[0].abs() + d0[1].abs() + d0[2].abs();
+    let near = side.abs().le(reach * F8::splat(SIDE_TOL));
+    let lit = if light.two_sided {
+        side.abs().gt(F8::ZERO)
+    } else {
+        side.gt(F8::ZERO)
+    };
+    let go = b.active.and(lit.or(near));
+    if !go.any() {
+        return LaneCounts {
+            fast: count(b.active),
+            scalar: 0,
+        };
+    }
+
+    // The light in each lane's local frame: vertices relative to the point,
+    // and edges rotated from the light's own (exact) edge vectors.
+    let mut q = [[F8::ZERO; 3]; N];
+    let mut e = [[F8::ZERO; 3]; N];
+    let mut min_z = F8::splat(f32::INFINITY);
+    let mut max_z = F8::splat(f32::NEG_INFINITY);
+    for i in 0..N {
+        let v = splat3(light.v[i]);
+        q[i] = rotate(&b.frame, &[v[0] - p[0], v[1] - p[1], v[2] - p[2]]);
+        e[i] = rotate(&b.frame, &splat3(light.e[i]));
+        min_z = min_z.min(q[i][2]);
+        max_z = max_z.max(q[i][2]);
+    }
+    let under = max_z.le(F8::ZERO);
+    let mut hard = go.and(near.or(min_z.lt(F8::ZERO).and_not(under)));
+
+    let fast = go.and_not(hard).and_not(under);
+
+    if fast.any() {
+        let eps = F8::splat(ERR_ULPS * f32::EPSILON * 0.5 + POLY_ERR);
+        let (sum_l, bnd_l, inv_l, u, dots) = lambert_sum(&q, &e, fast);
+        let ff = form_factor(sum_l);
+        let err_l = eps * bnd_l * F8::splat(0.5 / PI);
+        let mut spec = [F8::ZERO; 3];
+        let mut spec_err = [F8::ZERO; 3];
+        let lobe = fast.and(b.lobe);
+        if lobe.any() {
+            let lobe_sum = |m, norm, want: M8| {
+                if want.any() {
+                    ltc_sum(m, norm, &q, &e, &inv_l, want)
+                } else {
+                    (F8::ZERO, F8::ZERO, F8::ZERO)
+                }
+            };
+            let (sum_a, bnd_a, gain_a) = lobe_sum(&b.ma, b.norm_a, lobe.and(b.want_a));
+            let (sum_b, bnd_b, gain_b) = lobe_sum(&b.mb, b.norm_b, lobe.and(b.want_b));
+            let share_a = b.wa.mul_add(form_factor(sum_a), b.mix * ff);
+            let share_b = b.wb.mul_add(form_factor(sum_b), b.fmix * ff);
+            let (ka, kb) = lobe_factors_lanes(&u, &dots, &b.corr, share_a, share_b);
+            let err_a = eps * bnd_a * gain_a * F8::splat(0.5 / PI);
+            let err_b = eps * bnd_b * gain_b * F8::splat(0.5 / PI);
+            let a = b.want_a.select(b.mag * share_a * ka, F8::ZERO);
+            let bb = b.want_b.select(b.fres * share_b * kb, F8::ZERO);
+            let a_err = b
+                .want_a
+                .select(b.mag * ka * b.wa.mul_add(err_a, b.mix * err_l), F8::ZERO);
+            let b_err = b
+                .want_b
+                .select(b.fres * kb * b.wb.mul_add(err_b, b.fmix * err_l), F8::ZERO);
+            for c in 0..3 {
+                let ks = b.ks[c];
+                let s = ks.mul_add(a, (F8::ONE - ks) * bb);
+                let s_err = ks.mul_add(a_err, (F8::ONE - ks) * b_err);
+                spec[c] = b.lobe.select(s, F8::ZERO);
+                spec_err[c] = b.lobe.select(s_err, F8::ZERO);
+            }
+        }
+        // The Lambert lobe to `REL_TOL` of itself (the form factor keeps its
+        // accuracy), the whole of U to `REL_TOL` in every channel.
+        let tol = F8::splat(REL_TOL);
+        let mut doubt = err_l.gt(tol * ff);
+        let rad = light.radiance.to_array();
+        for c in 0..3 {
+            let d = b.kd[c] * ff;
+            let total = d + spec[c];
+            doubt = doubt
+                .or(b.kd[c].mul_add(err_l, spec_err[c]).gt(tol * total))
+                .or(total.finite().invert());
+            let r = F8::splat(rad[c]);
+            out.diffuse[c] = fast.select((d * r).max(F8::ZERO), F8::ZERO).0;
+            out.specular[c] = fast.select((spec[c] * r).max(F8::ZERO), F8::ZERO).0;
+        }
+        hard = hard.or(fast.and(doubt));
+    }
+
+    let mut counts = LaneCounts {
+        fast: count(b.active.and_not(hard)),
+        scalar: 0,
+    };
+    if hard.any() {
+        for l in 0..LANES {
+            if hard.lane(l) {
+                out.set_lane(l, unshadowed_lobes_prepared(&b.sp[l], &light.scalar));
+                counts.scalar += 1;
+            }
+        }
+    }
+    counts
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn f32_theta_over_sin_is_within_its_stated_error() {
+        let mut worst: f64 = 0.0;
+        for i in 0..=100_000 {
+            // At f32 inputs, so only the polynomial's error is measured.
+            let x = (i as f64 / 100_000.0) as f32;
+            let xd = x as f64;
+            let exact = if xd >= 1.0 {
+                1.0
+            } else {
+                xd.acos() / (1.0 - xd * xd).sqrt()
+            };
+            let got = theta_over_sin_pos_f32(x) as f64;
+            worst = worst.max((got - exact).abs() / exact);
+        }
+        assert!(worst < POLY_ERR as f64, "worst relative error {worst}");
+    }
+}

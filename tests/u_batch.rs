@@ -1,0 +1,253 @@
+//! The batched `f32` U (`shading::u_batch`) against the scalar `f64` path,
+//! lane by lane, over random shading points and lights (triangles to
+//! octagons, one- and two-sided, near, far, tiny, huge, straddling the
+//! horizon, far from the origin).
+//!
+//! Stated tolerance, per channel: `U` (both lobes) and each lobe within 1e-4
+//! of the scalar value relative to the larger `U`, and the diffuse (Lambert)
+//! lobe within 1e-4 relative to itself (values under 1e-9 count as equal).
+//! The batch aims at `REL_TOL` = 2e-4 of an error bound that overestimates
+//! the measured error tens of times, and sends any lane it cannot vouch for
+//! to the scalar path.
+
+use glam::{Quat, Vec3, vec3};
+use penumbra::scene::Light;
+use penumbra::shading::u_batch::{
+    BatchLight, LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch,
+};
+use penumbra::shading::{ShadingLight, SurfacePoint, unshadowed_lobes_prepared};
+
+const TOL: f32 = 1e-4;
+
+/// xorshift64: reproducible inputs without a dependency.
+struct Rng(u64);
+impl Rng {
+    fn f(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, a: f32, b: f32) -> f32 {
+        a + (b - a) * self.f()
+    }
+    fn unit(&mut self) -> Vec3 {
+        loop {
+            let v = vec3(self.f(), self.f(), self.f()) * 2.0 - Vec3::ONE;
+            let l = v.length();
+            if l > 0.1 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+}
+
+/// A regular convex `n`-gon of radius `r` around `c`, turned by `q`.
+fn polygon_light(c: Vec3, r: f32, n: usize, q: Quat, two_sided: bool) -> Light {
+    let vertices: Vec<Vec3> = (0..n)
+        .map(|k| {
+            let a = k as f32 * std::f32::consts::TAU / n as f32;
+            c + q * vec3(r * a.cos(), r * a.sin(), 0.0)
+        })
+        .collect();
+    Light {
+        vertices,
+        radiance: vec3(3.0, 2.0, 1.0),
+        two_sided,
+        normal: q * Vec3::Z,
+        area: 0.5 * n as f32 * r * r * (std::f32::consts::TAU / n as f32).sin(),
+        quad: None,
+    }
+}
+
+/// A random light from one of several families (see the module comment).
+fn random_light(rng: &mut Rng, origin: Vec3) -> Light {
+    let q = Quat::from_euler(
+        glam::EulerRot::XYZ,
+        rng.range(-3.1, 3.1),
+        rng.range(-3.1, 3.1),
+        rng.range(-3.1, 3.1),
+    );
+    let n = 3 + (rng.f() * 6.0) as usize;
+    let two_sided = rng.f() < 0.3;
+    let dir = rng.unit();
+    let (dist, r) = match (rng.f() * 6.0) as u32 {
+        0 => (rng.range(0.5, 3.0), rng.range(0.05, 1.5)), // ordinary
+        1 => (rng.range(0.2, 1.0), rng.range(0.5, 3.0)),  // near and large
+        2 => (rng.range(1.0, 10.0), rng.range(1e-3, 1e-2)), // small
+        3 => (rng.range(100.0, 1e4), rng.range(0.1, 10.0)), // distant
+        4 => (rng.range(0.5, 3.0), rng.range(1e-4, 1e-3)), // tiny (1e-8..1e-6 sr)
+        _ => (rng.range(0.01, 0.2), rng.range(1.0, 100.0)), // almost the hemisphere
+    };
+    polygon_light(origin + dir * dist, r, n.min(8), q, two_sided)
+}
+
+fn random_point(rng: &mut Rng, origin: Vec3) -> SurfacePoint {
+    let n = rng.unit();
+    // Views from the normal to past grazing (shading normals).
+    let wo = (n * rng.range(-0.05, 1.0) + rng.unit()).normalize_or(n);
+    let spec = match (rng.f() * 4.0) as u32 {
+        0 => Vec3::ZERO,
+        1 => Vec3::ONE,
+        2 => Vec3::splat(0.04),
+        _ => vec3(rng.f(), rng.f(), rng.f()),
+    };
+    SurfacePoint {
+        p: origin + vec3(rng.f(), rng.f(), rng.f()) * 0.1,
+        n,
+        wo,
+        diffuse: if rng.f() < 0.2 {
+            Vec3::ZERO
+        } else {
+            vec3(rng.f(), rng.f(), rng.f())
+        },
+        specular: spec,
+        roughness: if rng.f() < 0.1 {
+            0.0
+        } else {
+            rng.f().powf(0.7)
+        },
+    }
+}
+
+/// Largest deviation of the batch from the scalar path, per channel: of
+/// `U = diffuse + specular` relative to the larger `U`, and of the diffuse
+/// lobe relative to itself (values under 1e-9 in both count as equal).
+fn deviation(batch: (Vec3, Vec3), scalar: (Vec3, Vec3)) -> f32 {
+    let mut worst: f32 = 0.0;
+    let rel = |x: f32, y: f32, scale: f32| {
+        if scale > 1e-9 {
+            (x - y).abs() / scale
+        } else {
+            0.0
+        }
+    };
+    for c in 0..3 {
+        let (bd, bs, sd, ss) = (batch.0[c], batch.1[c], scalar.0[c], scalar.1[c]);
+        assert!(bd.is_finite() && bd >= 0.0 && bs.is_finite() && bs >= 0.0);
+        let scale = (bd + bs).max(sd + ss);
+        worst = worst
+            .max(rel(bd + bs, sd + ss, scale))
+            .max(rel(bs, ss, scale))
+            .max(rel(bd, sd, bd.max(sd)));
+    }
+    worst
+}
+
+/// Runs `groups` random batches around `origin`; returns the worst
+/// deviation and how the lanes went.
+fn compare(seed: u64, groups: usize, origin: Vec3) -> (f32, LaneCounts) {
+    let mut rng = Rng(seed);
+    let mut worst: f32 = 0.0;
+    let mut counts = LaneCounts::default();
+    for _ in 0..groups {
+        let light = random_light(&mut rng, origin);
+        let (bl, sl) = (BatchLight::new(&light), ShadingLight::new(&light));
+        // Some lanes empty, as at the end of a row.
+        let points: [Option<SurfacePoint>; LANES] = std::array::from_fn(|_| {
+            let p = random_point(&mut rng, origin);
+            (rng.f() > 0.05).then_some(p)
+        });
+        let batch = PixelBatch::new(&points);
+        let mut out = LaneLobes::default();
+        let c = lobes_batch(&batch, &bl, &mut out);
+        counts.fast += c.fast;
+        counts.scalar += c.scalar;
+        for (l, p) in points.iter().enumerate() {
+            let got = out.lane(l);
+            let want = match p {
+                Some(sp) => unshadowed_lobes_prepared(sp, &sl),
+                None => (Vec3::ZERO, Vec3::ZERO),
+            };
+            let d = deviation(got, want);
+            assert!(
+                d <= TOL,
+                "deviation {d}: batch {got:?}, scalar {want:?}, point {p:?}, light {light:?}"
+            );
+            worst = worst.max(d);
+        }
+    }
+    (worst, counts)
+}
+
+#[test]
+fn batch_equals_scalar_path_within_tolerance() {
+    let (worst, counts) = compare(0x2545_f491_4f6c_dd1d, 4000, Vec3::ZERO);
+    eprintln!(
+        "u_batch vs scalar: worst relative deviation {worst:.2e}; lanes fast {} / scalar {}",
+        counts.fast, counts.scalar
+    );
+}
+
+#[test]
+fn batch_equals_scalar_path_far_from_the_origin() {
+    let (worst, counts) = compare(0x9e37_79b9_7f4a_7c15, 1000, vec3(1e4, -1e4, 1e4));
+    eprintln!(
+        "u_batch vs scalar at 1e4: worst {worst:.2e}; lanes fast {} / scalar {}",
+        counts.fast, counts.scalar
+    );
+}
+
+#[test]
+fn ordinary_lights_take_the_fast_path() {
+    // A quad overhead, points on the floor below it with random views: no
+    // clipping, no precision trouble, so no lane should need the scalar path
+    // (otherwise the equality tests above would prove nothing).
+    let mut rng = Rng(7);
+    let light = polygon_light(
+        vec3(0.0, 0.0, 2.0),
+        0.7,
+        4,
+        Quat::from_rotation_x(std::f32::consts::PI),
+        false,
+    );
+    let bl = BatchLight::new(&light);
+    let mut counts = LaneCounts::default();
+    for _ in 0..100 {
+        let points: [Option<SurfacePoint>; LANES] = std::array::from_fn(|_| {
+            let p = vec3(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), 0.0);
+            let eye = vec3(
+                rng.range(-3.0, 3.0),
+                rng.range(-3.0, 3.0),
+                rng.range(0.5, 3.0),
+            );
+            Some(SurfacePoint {
+                p,
+                n: Vec3::Z,
+                wo: (eye - p).normalize(),
+                diffuse: Vec3::splat(0.5),
+                specular: Vec3::ZERO,
+                roughness: 0.5,
+            })
+        });
+        let c = lobes_batch(&PixelBatch::new(&points), &bl, &mut LaneLobes::default());
+        counts.fast += c.fast;
+        counts.scalar += c.scalar;
+    }
+    assert_eq!(counts.scalar, 0, "{counts:?}");
+}
+
+#[test]
+fn a_light_straddling_the_horizon_gets_the_scalar_answer_exactly() {
+    let light = polygon_light(
+        vec3(0.0, 1.0, 0.0),
+        0.5,
+        4,
+        Quat::from_rotation_x(0.3),
+        true,
+    );
+    let (bl, sl) = (BatchLight::new(&light), ShadingLight::new(&light));
+    let sp = SurfacePoint {
+        p: Vec3::ZERO,
+        n: Vec3::Z,
+        wo: vec3(0.3, 0.0, 1.0).normalize(),
+        diffuse: Vec3::splat(0.5),
+        specular: Vec3::splat(0.04),
+        roughness: 0.3,
+    };
+    let mut out = LaneLobes::default();
+    let c = lobes_batch(&PixelBatch::new(&[Some(sp)]), &bl, &mut out);
+    assert_eq!(c, LaneCounts { fast: 0, scalar: 1 });
+    assert_eq!(out.lane(0), unshadowed_lobes_prepared(&sp, &sl));
+    assert!((1..LANES).all(|l| out.lane(l) == (Vec3::ZERO, Vec3::ZERO)));
+}
