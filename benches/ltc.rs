@@ -5,10 +5,18 @@
 //!   (`ShadingLight`), as the renderer calls it.
 //! - `u_pass/N`: a U pass over a synthetic 1280x720 G-buffer (a plane with
 //!   varying normals) with N prepared quad lights, one thread.
+//! - `unshadowed_batch/quad` and `u_pass 1280x720/batched, N lights`: the
+//!   same through the batched path the renderer uses (`shading::u_batch`,
+//!   8 pixels at a time; each group's frame, LTC cell and correction
+//!   constants are set up once for all its lights). The share of lanes the
+//!   batch hands to the scalar path is printed once.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec3, vec3};
 use penumbra::scene::Light;
+use penumbra::shading::u_batch::{
+    BatchLight, LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch,
+};
 use penumbra::shading::{ShadingLight, SurfacePoint, unshadowed, unshadowed_prepared};
 use std::hint::black_box;
 
@@ -142,7 +150,43 @@ fn bench(c: &mut Criterion) {
         },
     );
 
+    let batch_lights: Vec<BatchLight> = ls.iter().map(BatchLight::new).collect();
+    // The batched U over the same inputs, 8 at a time.
+    let u_batch = |points: &[SurfacePoint], n: usize, counts: &mut LaneCounts| {
+        let mut acc = Vec3::ZERO;
+        let mut out = LaneLobes::default();
+        for group in points.chunks(LANES) {
+            let lanes: [Option<SurfacePoint>; LANES] =
+                std::array::from_fn(|l| group.get(l).copied());
+            let batch = PixelBatch::new(black_box(&lanes));
+            for bl in &batch_lights[..n] {
+                let c = lobes_batch(&batch, bl, &mut out);
+                counts.fast += c.fast;
+                counts.scalar += c.scalar;
+                for l in 0..group.len() {
+                    let (d, s) = out.lane(l);
+                    acc += d + s;
+                }
+            }
+        }
+        acc
+    };
+    let mut counts = LaneCounts::default();
+    c.bench_function(
+        "unshadowed_batch/quad (ns per evaluation = time / 4096)",
+        |b| b.iter(|| u_batch(&inputs, 1, &mut counts)),
+    );
+
     let g = gbuffer();
+    let mut fallback = LaneCounts::default();
+    u_batch(&g, 4, &mut fallback);
+    eprintln!(
+        "u_batch lanes on the 1280x720 G-buffer, 4 lights: fast {}, scalar {} ({:.2} %); on the 4096 inputs, light 0: {:.2} % scalar",
+        fallback.fast,
+        fallback.scalar,
+        100.0 * fallback.scalar as f64 / (fallback.fast + fallback.scalar) as f64,
+        100.0 * counts.scalar as f64 / (counts.fast + counts.scalar).max(1) as f64
+    );
     let mut group = c.benchmark_group("u_pass 1280x720");
     group.sample_size(10);
     for n in [1usize, 2, 4] {
@@ -156,6 +200,11 @@ fn bench(c: &mut Criterion) {
                 }
                 acc
             })
+        });
+    }
+    for n in [1usize, 2, 4] {
+        group.bench_function(format!("batched, {n} lights"), |b| {
+            b.iter(|| u_batch(&g, n, &mut LaneCounts::default()))
         });
     }
     group.finish();

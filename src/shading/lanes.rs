@@ -1,9 +1,10 @@
-//! Eight `f32` lanes, one per pixel, for the batched `U` (`u_batch`) and its
-//! shape correction (`ltc_correction::lobe_factors_lanes`).
+//! Eight lanes, one per pixel, for the batched `U` (`u_batch`) and its
+//! shape correction (`ltc_correction::lobe_factors_lanes`). Elements are
+//! `f64` (`E`; see `u_batch` for why not `f32`).
 //!
 //! Every operation is a fixed loop over the eight elements, inlined always,
-//! which LLVM turns into one vector instruction (AVX2 with the x86-64-v3
-//! build of `.cargo/config.toml`, two SSE2 instructions otherwise): no
+//! which LLVM turns into vector instructions (two 4-wide AVX2 ones with the
+//! x86-64-v3 build of `.cargo/config.toml`, four SSE2 ones otherwise): no
 //! intrinsics, no `unsafe`. Comparisons give a mask `M8` of all-ones /
 //! all-zeros bit patterns, and selects are bitwise, so lanes never branch.
 
@@ -12,15 +13,18 @@ use std::ops::{Add, Div, Mul, Neg, Sub};
 /// Pixels per batch.
 pub const LANES: usize = 8;
 
-/// One `f32` per lane.
+/// The lane element type.
+pub type E = f64;
+
+/// One value per lane.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C, align(32))]
-pub struct F8(pub [f32; LANES]);
+pub struct F8(pub [E; LANES]);
 
 /// One lane mask: `!0` (true) or `0` (false) per lane.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(C, align(32))]
-pub struct M8(pub [u32; LANES]);
+pub struct M8(pub [u64; LANES]);
 
 #[inline(always)]
 fn each<T: Copy + Default, const K: usize>(f: impl Fn(usize) -> T) -> [T; K] {
@@ -32,7 +36,7 @@ fn each<T: Copy + Default, const K: usize>(f: impl Fn(usize) -> T) -> [T; K] {
 }
 
 #[inline(always)]
-fn bit(b: bool) -> u32 {
+fn bit(b: bool) -> u64 {
     if b { !0 } else { 0 }
 }
 
@@ -41,23 +45,29 @@ impl F8 {
     pub const ONE: F8 = F8([1.0; LANES]);
 
     #[inline(always)]
-    pub fn splat(x: f32) -> F8 {
-        F8([x; LANES])
+    pub fn splat(x: impl Into<E>) -> F8 {
+        F8([x.into(); LANES])
     }
 
     /// Lane `l` from `f(l)`.
     #[inline(always)]
     pub fn from_fn(f: impl Fn(usize) -> f32) -> F8 {
-        F8(each(f))
+        F8(each(|l| E::from(f(l))))
+    }
+
+    /// The lanes as `f32`.
+    #[inline(always)]
+    pub fn to_f32(self) -> [f32; LANES] {
+        each(|l| self.0[l] as f32)
     }
 
     #[inline(always)]
-    pub fn map(self, f: impl Fn(f32) -> f32) -> F8 {
+    pub fn map(self, f: impl Fn(E) -> E) -> F8 {
         F8(each(|l| f(self.0[l])))
     }
 
     #[inline(always)]
-    pub fn zip(self, o: F8, f: impl Fn(f32, f32) -> f32) -> F8 {
+    pub fn zip(self, o: F8, f: impl Fn(E, E) -> E) -> F8 {
         F8(each(|l| f(self.0[l], o.0[l])))
     }
 
@@ -78,12 +88,12 @@ impl F8 {
 
     #[inline(always)]
     pub fn abs(self) -> F8 {
-        self.map(f32::abs)
+        self.map(E::abs)
     }
 
     #[inline(always)]
     pub fn sqrt(self) -> F8 {
-        self.map(f32::sqrt)
+        self.map(E::sqrt)
     }
 
     /// Lane-wise minimum (`minps` semantics: written as a compare-select so
@@ -99,7 +109,7 @@ impl F8 {
     }
 
     #[inline(always)]
-    pub fn clamp(self, lo: f32, hi: f32) -> F8 {
+    pub fn clamp(self, lo: impl Into<E>, hi: impl Into<E>) -> F8 {
         self.max(F8::splat(lo)).min(F8::splat(hi))
     }
 
@@ -126,12 +136,12 @@ impl F8 {
     /// Finite lanes (not NaN, not infinite).
     #[inline(always)]
     pub fn finite(self) -> M8 {
-        self.abs().lt(F8::splat(f32::INFINITY))
+        self.abs().lt(F8::splat(E::INFINITY))
     }
 
     /// Sum over the lanes.
     #[inline(always)]
-    pub fn sum(self) -> f32 {
+    pub fn sum(self) -> E {
         self.0.iter().sum()
     }
 }
@@ -149,7 +159,7 @@ impl M8 {
     #[inline(always)]
     pub fn select(self, a: F8, b: F8) -> F8 {
         F8(each(|l| {
-            f32::from_bits((a.0[l].to_bits() & self.0[l]) | (b.0[l].to_bits() & !self.0[l]))
+            E::from_bits((a.0[l].to_bits() & self.0[l]) | (b.0[l].to_bits() & !self.0[l]))
         }))
     }
 
@@ -268,8 +278,8 @@ mod tests {
         assert_eq!(a.min(b), m.select(a, b));
         assert_eq!(a.max(b), m.select(b, a));
         let mut c = a;
-        c.0[2] = f32::NAN;
-        c.0[5] = f32::INFINITY;
+        c.0[2] = E::NAN;
+        c.0[5] = E::INFINITY;
         let f = c.finite();
         assert!(!f.lane(2) && !f.lane(5) && f.lane(0) && f.lane(7));
         assert!(m.any() && !M8::NONE.any());

@@ -85,14 +85,6 @@ impl LobeModel {
             ),
         )
     }
-
-    #[inline(always)]
-    fn value(&self, w: Vec3) -> f32 {
-        let [m00, m02, m20, m22] = self.m;
-        let (ox, oz) = (m00 * w.x + m02 * w.z, m20 * w.x + m22 * w.z);
-        let l2 = ox * ox + w.y * w.y + oz * oz;
-        self.kd * oz.max(0.0) / (l2 * l2).max(1e-30) + self.kc * w.z
-    }
 }
 
 /// The exact lobes at unit directions of the upper hemisphere, for one view:
@@ -124,7 +116,7 @@ impl ExactLobes {
     /// clamps it) and `t = sqrt(c² + a² (wx² + wy²))`, `1 + Lambda(w) =
     /// (c + t) / (2 c)`, so `A = D G2 wz / (4 c cos_o) =
     /// a² |h|^4 wz / (2 π cos_o q² (c lo2 + t))`; `B = A (1 - wo.h/|h|)^5`.
-    #[inline(always)]
+    #[cfg(test)]
     fn eval(&self, w: Vec3) -> (f32, f32) {
         let h = w + self.wo;
         let l2 = h.length_squared().max(1e-30);
@@ -144,60 +136,6 @@ impl ExactLobes {
     }
 }
 
-/// `atan2(y, x)` for `y >= 0`, from `atan(r) ~ r / (1 + 0.28086 r²)` on
-/// |r| <= 1 (max error 0.005 rad), as `n d / (d² + 0.28086 n²)` for
-/// `r = n / d`: one division; branch-free (selects), so a loop over nodes
-/// vectorises.
-#[inline(always)]
-fn atan2_pos(y: f32, x: f32) -> f32 {
-    // Octant: |x| >= y reads atan(y / x) (+ π for x < 0), otherwise
-    // π/2 + atan(-x / y).
-    let steep = x.abs() < y;
-    let (num, den) = if steep { (-x, y) } else { (y, x) };
-    let base = if steep {
-        FRAC_PI_2
-    } else if x < 0.0 {
-        PI
-    } else {
-        0.0
-    };
-    base + num * den / (den * den + 0.28086 * num * num).max(1e-30)
-}
-
-/// Nodes evaluated together (one SIMD register of `f32`).
-const LANES: usize = 4;
-
-/// Per-lane sums `wt f_A, wt f_B, wt ltc_A, wt ltc_B` of the nodes of one
-/// chunk: the fan triangles `(c, a[j], b[j])`, lanes with `live[j] = false`
-/// weighing 0. Straight-line per lane, so the loop runs as SIMD.
-#[inline(always)]
-fn chunk(
-    c: Vec3,
-    a: &[[f32; LANES]; 3],
-    b: &[[f32; LANES]; 3],
-    live: &[bool; LANES],
-    (exact, ma, mb): (&ExactLobes, &LobeModel, &LobeModel),
-    sums: &mut [[f32; LANES]; 4],
-) {
-    for j in 0..LANES {
-        let a = Vec3::new(a[0][j], a[1][j], a[2][j]);
-        let b = Vec3::new(b[0][j], b[1][j], b[2][j]);
-        // Solid angle of the spherical triangle (c, a, b) (Van Oosterom and
-        // Strackee's formula).
-        let num = c.dot(a.cross(b)).abs();
-        let den = 1.0 + c.dot(a) + a.dot(b) + b.dot(c);
-        let omega = 2.0 * atan2_pos(num, den);
-        let m = c + a + b;
-        let w = m * m.length_squared().max(1e-30).sqrt().recip();
-        let wt = if live[j] && w.z > 0.0 { omega } else { 0.0 };
-        let (ea, eb) = exact.eval(w);
-        sums[0][j] += wt * ea;
-        sums[1][j] += wt * eb;
-        sums[2][j] += wt * ma.value(w);
-        sums[3][j] += wt * mb.value(w);
-    }
-}
-
 /// The factors to multiply the two lobes' LTC integrals by, `(A, B)`.
 ///
 /// - `poly`: the light polygon in the shading frame (z = normal, view in
@@ -208,6 +146,10 @@ fn chunk(
 ///   light's share of the modelled lobe, in [0, 1]);
 /// - `wo`: the view as the table was looked up, `(sin θv, 0, cos θv)`;
 ///   `alpha`: GGX alpha.
+///
+/// One pixel through `lobe_factors_lanes` (in lane 0; the batched U runs
+/// eight), so the scalar and batched paths compute the same factor with
+/// the same `f64` arithmetic.
 pub fn lobe_factors(
     poly: &[DVec3],
     cell: &LtcCell,
@@ -217,72 +159,44 @@ pub fn lobe_factors(
     alpha: f32,
 ) -> (f32, f32) {
     let n = poly.len().min(MAX_VERTICES);
-    if n < 3 {
-        return (1.0, 1.0);
+    let k = || {
+        CorrectionLanes::new(
+            &[*cell; lanes::LANES],
+            &[wo; lanes::LANES],
+            &[alpha; lanes::LANES],
+        )
+    };
+    let s = (share_a, share_b);
+    match n {
+        0..=2 => (1.0, 1.0),
+        3 => one_pixel::<3>(poly, &k(), s),
+        4 => one_pixel::<4>(poly, &k(), s),
+        5 => one_pixel::<5>(poly, &k(), s),
+        6 => one_pixel::<6>(poly, &k(), s),
+        7 => one_pixel::<7>(poly, &k(), s),
+        8 => one_pixel::<8>(poly, &k(), s),
+        9 => one_pixel::<9>(poly, &k(), s),
+        _ => one_pixel::<MAX_VERTICES>(poly, &k(), s),
     }
-    let (ma, mb) = LobeModel::pair(cell);
-    let exact = ExactLobes::new(wo, alpha);
-    // Unit vertices and the centroid direction.
-    // (Lengths first, in a fixed-length loop that runs as SIMD.)
-    let mut u = [Vec3::ZERO; MAX_VERTICES];
-    let mut inv = [0.0f32; MAX_VERTICES];
-    for ((dst, l), v) in u.iter_mut().zip(&mut inv).zip(&poly[..n]) {
-        *dst = v.as_vec3();
-        *l = dst.length_squared();
-    }
-    for l in &mut inv {
-        *l = 1.0 / l.max(1e-30).sqrt();
-    }
-    let mut c = Vec3::ZERO;
-    for (dst, l) in u[..n].iter_mut().zip(inv) {
-        *dst *= l;
-        c += *dst;
-    }
-    let c = c * c.length_squared().max(1e-30).sqrt().recip();
-    // Fan triangle i is (c, u[i], u[i + 1]); nodes in chunks of LANES.
-    let mut sums = [[0.0f32; LANES]; 4];
-    for start in (0..n).step_by(LANES) {
-        let mut a = [[0.0f32; LANES]; 3];
-        let mut b = [[0.0f32; LANES]; 3];
-        let mut live = [false; LANES];
-        for j in 0..LANES.min(n - start) {
-            let i = start + j;
-            let (p, q) = (u[i], u[if i + 1 == n { 0 } else { i + 1 }]);
-            for (k, (pk, qk)) in [(p.x, q.x), (p.y, q.y), (p.z, q.z)].into_iter().enumerate() {
-                a[k][j] = pk;
-                b[k][j] = qk;
-            }
-            live[j] = true;
-        }
-        chunk(c, &a, &b, &live, (&exact, &ma, &mb), &mut sums);
-    }
-    let [fa, fb, ga, gb] = sums.map(|s| s.iter().sum::<f32>());
-    (
-        factor(fa, ga, share_a, ma.mag),
-        factor(fb, gb, share_b, mb.mag),
-    )
 }
 
-/// `Q[f] / Q[ltc]`, faded toward 1 by the cubature's trust and the share.
-fn factor(qf: f32, qg: f32, share: f32, mag: f32) -> f32 {
-    let s = share.clamp(0.0, 1.0);
-    let ltc = s * mag;
-    if !(qg > 0.0 && ltc > 0.0 && qf >= 0.0) {
-        return 1.0;
-    }
-    // r = qf / qg and qg / ltc with one division.
-    let inv = 1.0 / (qg * ltc);
-    if !inv.is_finite() {
-        return 1.0;
-    }
-    let r = (qf * ltc * inv).min(MAX_RATIO);
-    let trust = (1.0 - (qg * qg * inv - 1.0).abs() * (1.0 / TRUST)).max(0.0);
-    let k = 1.0 + (r - 1.0) * trust * (1.0 - s);
-    if k.is_finite() {
-        k.clamp(0.0, MAX_RATIO)
-    } else {
-        1.0
-    }
+/// `lobe_factors` of an `N`-gon, in lane 0.
+fn one_pixel<const N: usize>(
+    poly: &[DVec3],
+    k: &CorrectionLanes,
+    (share_a, share_b): (f32, f32),
+) -> (f32, f32) {
+    let u: [V8; N] = std::array::from_fn(|i| {
+        // As the batch's `inv_len`: a vertex at the point stays zero.
+        let v = poly[i];
+        let v = v / v.length_squared().max(f64::MIN_POSITIVE).sqrt();
+        [F8::splat(v.x), F8::splat(v.y), F8::splat(v.z)]
+    });
+    let dots: [F8; N] = std::array::from_fn(|i| {
+        dot(&u[i], &u[if i + 1 == N { 0 } else { i + 1 }]).clamp(-1.0, 1.0)
+    });
+    let (a, b) = lobe_factors_lanes(&u, &dots, k, F8::splat(share_a), F8::splat(share_b));
+    (a.0[0] as f32, b.0[0] as f32)
 }
 
 /// The correction's per-lane constants for a batch of pixels
@@ -462,6 +376,26 @@ mod tests {
                     let (f, cos_oh) = brdf::spec_local(alpha, w, wo);
                     let (a, b) = (f * w.z, f * w.z * brdf::schlick_weight(cos_oh));
                     let (ea, eb) = e.eval(w);
+                    // The lane version the correction runs, at the same point.
+                    let k = CorrectionLanes::new(
+                        &[crate::shading::ltc::LtcCell {
+                            hmass: 1.0,
+                            fhmass: 1.0,
+                            ..Default::default()
+                        }; lanes::LANES],
+                        &[wo; lanes::LANES],
+                        &[alpha; lanes::LANES],
+                    );
+                    let wl = [F8::splat(w.x), F8::splat(w.y), F8::splat(w.z)];
+                    let (la, lb) = exact_lanes(&k, &wl);
+                    assert!(
+                        (la.0[0] as f32 - a).abs() <= 1e-4 * a + 1e-9,
+                        "lanes A {la:?} vs {a}"
+                    );
+                    assert!(
+                        (lb.0[0] as f32 - b).abs() <= 1e-3 * b + 1e-9,
+                        "lanes B {lb:?} vs {b}"
+                    );
                     assert!(
                         (ea - a).abs() <= 1e-4 * a + 1e-9,
                         "A {ea} vs {a} at {w}, {wo}, r {r}"
@@ -480,7 +414,8 @@ mod tests {
         for k in 0..=2000 {
             let t = PI * k as f32 / 2000.0;
             let (y, x) = (t.sin(), t.cos());
-            assert!((atan2_pos(y, x) - t).abs() < 0.005, "{t}");
+            let got = atan2_pos_lanes(F8::splat(y), F8::splat(x)).0[0];
+            assert!((got - t as f64).abs() < 0.005, "{t}");
         }
     }
 

@@ -142,7 +142,7 @@ const THETA_SIN_POLY: [f64; 11] = [
 /// polynomial is the hot spot of U, and Horner/Clenshaw chains of 10
 /// dependent multiply-adds were latency-bound (measured 3x slower U).
 #[inline]
-fn theta_over_sin_pos(x: f64) -> f64 {
+pub(crate) fn theta_over_sin_pos(x: f64) -> f64 {
     let c = &THETA_SIN_POLY;
     let t = 2.0 * x - 1.0;
     let t2 = t * t;

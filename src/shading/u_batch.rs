@@ -1,61 +1,66 @@
 //! The analytic unshadowed light `U` of `unshadowed` for eight pixels at a
-//! time, one pixel per `f32` lane (`lanes::F8`), branch-free within a batch:
-//! the three contour sums (the Lambert form factor and the two LTC lobes),
-//! the clipping of the LTC images to their horizon, and the LTC shape
-//! correction (`ltc_correction::lobe_factors_lanes`) all run across pixels.
+//! time, one pixel per lane (`lanes::F8`, `f64` elements), branch-free
+//! within a batch: the three contour sums (the Lambert form factor and the
+//! two LTC lobes), the clipping of the LTC images to their horizon, and the
+//! LTC shape correction (`ltc_correction::lobe_factors_lanes`) all run
+//! across pixels.
 //!
 //! Per batch, what does not depend on the light is set up once, lane by
 //! lane in scalar code: the shading frame, the LTC cell (a table lookup is
 //! loads) and the correction's constants. Per light, the vertices are taken
-//! one at a time into the local frame; each contour sum is a loop over the
-//! edges with running sums.
+//! into each lane's local frame; each contour sum is a loop over the edges
+//! with running sums.
 //!
-//! Which lanes stay here. A lane goes to the scalar `f64` path
+//! Why `f64` lanes. A first version ran `f32` lanes (twice the pixels per
+//! instruction) and sent the lanes it could not vouch for to the scalar
+//! path: on `room` a third of them, because the LTC images of mid-rough
+//! lobes compress lights away from the highlight, and the contour sum of a
+//! small image cancels beyond what `f32` carries (measured deviations up to
+//! 23 % there). In `f64` the same arithmetic is the scalar path's, and the
+//! fallback falls to the lights that straddle a lane's horizon.
+//!
+//! Which lanes stay here. A lane goes to the scalar path
 //! (`unshadowed_lobes_prepared`, whose answer it then has exactly) when its
 //! light straddles its horizon (the Lambert polygon would need clipping
-//! before the LTC images are taken: rare, and kept out of the vector code),
-//! when it lies (nearly) in the light's plane, or when its `f32` result
-//! cannot be vouched for: each edge term is computed from a vertex and the
-//! light's edge vector (`a x b = a x (b - a)`), so it carries a few `f32`
-//! ulps of its own size; what is left is the cancellation between edges
-//! (small lights seen off-axis), which each lane bounds (`ERR_ULPS` ulps
-//! plus the `theta/sin` polynomial's error, of the sum of the edge terms'
-//! magnitudes) and compares with `REL_TOL` of its `U` in every channel and
-//! of its Lambert lobe. Lanes unlit or entirely under the horizon get
-//! exactly 0, as in the scalar path. `tests/u_batch.rs` checks the result
-//! against the scalar path.
+//! before the LTC images are taken: kept out of the vector code), when it
+//! lies (nearly) in the light's plane, or when the rounding bound of its
+//! contour sums exceeds `REL_TOL` of its `U` (edge terms are computed from a
+//! vertex and the light's edge vector, `a x b = a x (b - a)`, so each keeps
+//! its own precision; each lane bounds the cancellation between them).
+//! Lanes unlit or entirely under the horizon get exactly 0, as in the
+//! scalar path. `tests/u_batch.rs` checks the result against the scalar
+//! path.
 
 use super::brdf::{Frame, alpha_from_roughness, has_specular_lobe};
-use super::lanes::{F8, M8, V8, dot};
+use super::lanes::{E, F8, M8, V8, dot};
 use super::ltc::{self, LtcCell};
 use super::ltc_correction::{CorrectionLanes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
 use super::unshadowed::{ShadingLight, SurfacePoint, unshadowed_lobes_prepared};
 use crate::scene::Light;
 use glam::Vec3;
-use std::f32::consts::PI;
 
 pub use super::lanes::LANES;
 
 /// Relative error of a lane's lobes (against the `f64` path) that the fast
 /// path accepts; above it the lane goes to the scalar path.
 pub const REL_TOL: f32 = 2e-4;
-/// Rounding of one edge term, in `f32` ulps of its magnitude bound (vertex
-/// and edge rounding, rotation, LTC map, cross and dot products).
-const ERR_ULPS: f32 = 16.0;
+/// Rounding of one edge term, in ulps of its magnitude bound (rotation,
+/// LTC map, cross and dot products).
+const ERR_ULPS: E = 16.0;
 /// A point this close to the light's plane (relative to its distance) is
-/// decided by the scalar path: the `f32` side test could round either way.
+/// decided by the scalar path (exactly as it decides it).
 const SIDE_TOL: f32 = 1e-5;
 
-/// A light as the batch reads it: `f32` vertices and edge vectors (each edge
-/// rounded once from its exact `f64` difference), plane, sidedness, and the
+/// A light as the batch reads it: vertices, exact edge vectors, plane,
+/// sidedness, and the
 /// light prepared for the scalar path (for the lanes sent there).
 #[derive(Clone, Copy, Debug)]
 pub struct BatchLight {
     /// Vertex count; 0 for a light that cannot emit (as `ShadingLight`).
     n: usize,
     v: [[f32; 3]; MAX_LIGHT_VERTICES],
-    e: [[f32; 3]; MAX_LIGHT_VERTICES],
+    e: [[E; 3]; MAX_LIGHT_VERTICES],
     normal: [f32; 3],
     radiance: Vec3,
     two_sided: bool,
@@ -66,11 +71,12 @@ impl BatchLight {
     pub fn new(light: &Light) -> BatchLight {
         let mut n = light.vertices.len().min(MAX_LIGHT_VERTICES);
         let mut v = [[0.0; 3]; MAX_LIGHT_VERTICES];
-        let mut e = [[0.0; 3]; MAX_LIGHT_VERTICES];
+        let mut e = [[0.0 as E; 3]; MAX_LIGHT_VERTICES];
         for i in 0..n {
             let (a, b) = (light.vertices[i], light.vertices[(i + 1) % n]);
             v[i] = a.to_array();
-            e[i] = (b.as_dvec3() - a.as_dvec3()).as_vec3().to_array();
+            let d = b.as_dvec3() - a.as_dvec3();
+            e[i] = [d.x as E, d.y as E, d.z as E];
         }
         if n < 3 || light.radiance == Vec3::ZERO {
             n = 0;
@@ -282,7 +288,7 @@ fn count(m: M8) -> u64 {
 }
 
 #[inline(always)]
-fn splat3(v: [f32; 3]) -> V8 {
+fn splat3(v: [impl Into<E> + Copy; 3]) -> V8 {
     [F8::splat(v[0]), F8::splat(v[1]), F8::splat(v[2])]
 }
 
@@ -305,42 +311,18 @@ fn ltc_map(m: &[F8; 4], v: &V8) -> V8 {
 /// `1 / |v|` per lane (a zero vector stays finite: its edges add 0).
 #[inline(always)]
 fn inv_len(v: &V8) -> F8 {
-    F8::ONE / dot(v, v).max(F8::splat(f32::MIN_POSITIVE)).sqrt()
+    F8::ONE / dot(v, v).max(F8::splat(E::MIN_POSITIVE)).sqrt()
 }
 
-/// `acos(x) / sqrt(1 - x^2)` on x in [0, 1] in `f32`: degree 7 in
-/// `t = 2x - 1` (Chebyshev interpolation, max relative error 4.8e-7, a few
-/// `f32` ulps: the lowest degree whose error is below the rounding the
-/// error bound already allows; degree 6 is at 2.9e-6, a test checks this
-/// one), Estrin's scheme.
-#[allow(clippy::excessive_precision)]
-pub const THETA_SIN_POLY_F32: [f32; 8] = [
-    1.209_199_1,
-    -0.263_599_98,
-    0.069_749_49,
-    -0.019_842_301,
-    0.005_781_520_4,
-    -0.001_747_600_4,
-    0.000_667_519_58,
-    -0.000_208_102_75,
-];
-/// Its relative error bound, carried into each lane's error bound.
-const POLY_ERR: f32 = 5e-7;
+/// Its relative error bound (`polygon::theta_over_sin_pos`, degree 10,
+/// 2.1e-9), carried into each lane's error bound.
+const POLY_ERR_F64: E = 3e-9;
 
-/// `theta / sin(theta)` for `x = cos(theta)` in [0, 1], one lane.
-#[inline(always)]
-pub fn theta_over_sin_pos_f32(x: f32) -> f32 {
-    let c = &THETA_SIN_POLY_F32;
-    let t = 2.0 * x - 1.0;
-    let t2 = t * t;
-    let q0 = (c[0] + c[1] * t) + (c[2] + c[3] * t) * t2;
-    let q1 = (c[4] + c[5] * t) + (c[6] + c[7] * t) * t2;
-    q0 + q1 * (t2 * t2)
-}
-
+/// `theta / sin(theta)` for `x = cos(theta)` in [0, 1]: the scalar path's
+/// polynomial, per lane.
 #[inline(always)]
 fn theta_over_sin_pos(x: F8) -> F8 {
-    x.map(theta_over_sin_pos_f32)
+    x.map(super::polygon::theta_over_sin_pos)
 }
 
 /// `theta / sin(theta)` for x in [-1, 1] (already clamped): below 0,
@@ -349,7 +331,7 @@ fn theta_over_sin_pos(x: F8) -> F8 {
 fn theta_over_sin(x: F8) -> F8 {
     let p = theta_over_sin_pos(x.abs());
     let s = ((F8::ONE - x) * (F8::ONE + x)).max(F8::splat(1e-30)).sqrt();
-    let far = F8::splat(PI) / s - p;
+    let far = F8::splat(std::f64::consts::PI) / s - p;
     x.ge(F8::ZERO).select(p, far)
 }
 
@@ -523,7 +505,7 @@ fn clipped_sum<const N: usize>(q: &[V8; N], e: &[V8; N], inv_v: &[F8; N], live: 
 /// `min(|sum| / 2π, 1)`: a contour sum as the form factor of its polygon.
 #[inline(always)]
 fn form_factor(sum: F8) -> F8 {
-    (sum.abs() * F8::splat(0.5 / PI)).min(F8::ONE)
+    (sum.abs() * F8::splat(0.5 / std::f64::consts::PI)).min(F8::ONE)
 }
 
 #[inline(always)]
@@ -553,8 +535,8 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
     // and edges rotated from the light's own (exact) edge vectors.
     let mut q = [[F8::ZERO; 3]; N];
     let mut e = [[F8::ZERO; 3]; N];
-    let mut min_z = F8::splat(f32::INFINITY);
-    let mut max_z = F8::splat(f32::NEG_INFINITY);
+    let mut min_z = F8::splat(E::INFINITY);
+    let mut max_z = F8::splat(E::NEG_INFINITY);
     for i in 0..N {
         let v = splat3(light.v[i]);
         q[i] = rotate(&b.frame, &[v[0] - p[0], v[1] - p[1], v[2] - p[2]]);
@@ -568,10 +550,10 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
     let fast = go.and_not(hard).and_not(under);
 
     if fast.any() {
-        let eps = F8::splat(ERR_ULPS * f32::EPSILON * 0.5 + POLY_ERR);
+        let eps = F8::splat(ERR_ULPS * E::EPSILON * 0.5 + POLY_ERR_F64);
         let (sum_l, bnd_l, inv_l, u, dots) = lambert_sum(&q, &e, fast);
         let ff = form_factor(sum_l);
-        let err_l = eps * bnd_l * F8::splat(0.5 / PI);
+        let err_l = eps * bnd_l * F8::splat(0.5 / std::f64::consts::PI);
         let mut spec = [F8::ZERO; 3];
         let mut spec_err = [F8::ZERO; 3];
         let lobe = fast.and(b.lobe);
@@ -588,8 +570,8 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
             let share_a = b.wa.mul_add(form_factor(sum_a), b.mix * ff);
             let share_b = b.wb.mul_add(form_factor(sum_b), b.fmix * ff);
             let (ka, kb) = lobe_factors_lanes(&u, &dots, &b.corr, share_a, share_b);
-            let err_a = eps * bnd_a * gain_a * F8::splat(0.5 / PI);
-            let err_b = eps * bnd_b * gain_b * F8::splat(0.5 / PI);
+            let err_a = eps * bnd_a * gain_a * F8::splat(0.5 / std::f64::consts::PI);
+            let err_b = eps * bnd_b * gain_b * F8::splat(0.5 / std::f64::consts::PI);
             let a = b.want_a.select(b.mag * share_a * ka, F8::ZERO);
             let bb = b.want_b.select(b.fres * share_b * kb, F8::ZERO);
             let a_err = b
@@ -618,8 +600,8 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
                 .or(b.kd[c].mul_add(err_l, spec_err[c]).gt(tol * total))
                 .or(total.finite().invert());
             let r = F8::splat(rad[c]);
-            out.diffuse[c] = fast.select((d * r).max(F8::ZERO), F8::ZERO).0;
-            out.specular[c] = fast.select((spec[c] * r).max(F8::ZERO), F8::ZERO).0;
+            out.diffuse[c] = fast.select((d * r).max(F8::ZERO), F8::ZERO).to_f32();
+            out.specular[c] = fast.select((spec[c] * r).max(F8::ZERO), F8::ZERO).to_f32();
         }
         hard = hard.or(fast.and(doubt));
     }
@@ -637,27 +619,4 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
         }
     }
     counts
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn f32_theta_over_sin_is_within_its_stated_error() {
-        let mut worst: f64 = 0.0;
-        for i in 0..=100_000 {
-            // At f32 inputs, so only the polynomial's error is measured.
-            let x = (i as f64 / 100_000.0) as f32;
-            let xd = x as f64;
-            let exact = if xd >= 1.0 {
-                1.0
-            } else {
-                xd.acos() / (1.0 - xd * xd).sqrt()
-            };
-            let got = theta_over_sin_pos_f32(x) as f64;
-            worst = worst.max((got - exact).abs() / exact);
-        }
-        assert!(worst < POLY_ERR as f64, "worst relative error {worst}");
-    }
 }
