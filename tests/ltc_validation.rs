@@ -4,7 +4,10 @@
 //! roughness in [0.2, 1], view 0..89 degrees, quads and triangles of random
 //! size, distance, direction (some straddling the horizon) and tilt.
 //! `cargo test --release --test ltc_validation -- --nocapture` prints the
-//! distribution (`PENUMBRA_LTC_DUMP=1`: every case).
+//! distribution (`PENUMBRA_LTC_DUMP=1`: every case). The same bounds are
+//! asserted for the batched U the renderer runs (`shading::u_batch`), each
+//! case in its own lane of a batch of eight whose other lanes hold the
+//! same point seen from other angles.
 
 #[path = "ltc_support/mod.rs"]
 mod common;
@@ -12,6 +15,7 @@ mod common;
 use common::{lobe_total, point_z, polygon_light, reference, rel};
 use glam::{Quat, Vec3};
 use penumbra::scene::Light;
+use penumbra::shading::u_batch::{BatchLight, LANES, LaneLobes, PixelBatch, lobes_batch};
 use penumbra::shading::unshadowed_lobes;
 use rayon::prelude::*;
 
@@ -94,6 +98,26 @@ fn config(rng: &mut Rng) -> Config {
     }
 }
 
+/// The specular lobe of configuration `c` through the batched U, in lane
+/// `lane`; the other lanes hold the same point under other views.
+fn batched_specular(lane: usize, c: &Config) -> Vec3 {
+    let points: [Option<_>; LANES] = std::array::from_fn(|l| {
+        let view = if l == lane {
+            c.view
+        } else {
+            (c.view + 11.0 * l as f32) % 89.0
+        };
+        Some(point_z(Vec3::ZERO, view, F0, c.roughness))
+    });
+    let mut out = LaneLobes::default();
+    lobes_batch(
+        &PixelBatch::new(&points),
+        &BatchLight::new(&c.light),
+        &mut out,
+    );
+    out.lane(lane).1
+}
+
 fn quantile(v: &mut [f32], q: f64) -> f32 {
     v.sort_by(f32::total_cmp);
     v[((v.len() - 1) as f64 * q).round() as usize]
@@ -103,22 +127,26 @@ fn quantile(v: &mut [f32], q: f64) -> f32 {
 fn ggx_matches_brute_force_on_an_independent_random_set() {
     let mut rng = Rng(SEED);
     let configs: Vec<Config> = (0..CASES).map(|_| config(&mut rng)).collect();
-    // (config index, worst-channel error, F0 = 1 error, share of the lobe)
-    let results: Vec<(usize, f32, f32, f32)> = configs
+    // (config index, worst-channel error, F0 = 1 error, share of the lobe,
+    // worst-channel error of the batched U)
+    let results: Vec<(usize, f32, f32, f32, f32)> = configs
         .par_iter()
         .enumerate()
         .map(|(i, c)| {
             let sp = point_z(Vec3::ZERO, c.view, F0, c.roughness);
             let (_, s) = unshadowed_lobes(&sp, &c.light);
             assert!(s.is_finite() && s.min_element() >= 0.0, "case {i}: {s}");
+            let sb = batched_specular(i % LANES, c);
+            assert!(sb.is_finite() && sb.min_element() >= 0.0, "case {i}: {sb}");
             let (_, rs) = reference(&sp, &c.light, 1e-5).lobes(&sp, &c.light);
             let share = rs.x / lobe_total(c.roughness, sp.wo);
             let worst = (0..3).map(|k| rel(s[k], rs[k])).fold(0.0, f32::max);
-            (i, worst, rel(s.x, rs.x), share)
+            let worst_b = (0..3).map(|k| rel(sb[k], rs[k])).fold(0.0, f32::max);
+            (i, worst, rel(s.x, rs.x), share, worst_b)
         })
         .collect();
     if std::env::var_os("PENUMBRA_LTC_DUMP").is_some() {
-        for &(i, e, m, share) in &results {
+        for &(i, e, m, share, _) in &results {
             let c = &configs[i];
             println!(
                 "DUMP r={:.3} v={:.1} share={share:.4} metal={m:.4} spec={e:.4} {}",
@@ -150,7 +178,17 @@ fn ggx_matches_brute_force_on_an_independent_random_set() {
         quantile(&mut metal, 0.9),
         quantile(&mut metal, 1.0),
     );
+    let mut batched: Vec<f32> = significant.iter().map(|r| r.4).collect();
+    let (bmed, bp90, bmax) = (
+        quantile(&mut batched, 0.5),
+        quantile(&mut batched, 0.9),
+        quantile(&mut batched, 1.0),
+    );
+    println!("batched U (u_batch), same cases: median {bmed:.4}, p90 {bp90:.4}, max {bmax:.4}");
     assert!(significant.len() >= CASES / 3, "too few significant lights");
+    assert!(bmed <= TARGET_MEDIAN, "batched median {bmed}");
+    assert!(bp90 <= MEASURED_P90, "batched p90 {bp90}");
+    assert!(bmax <= MEASURED_MAX, "batched max {bmax}");
     assert!(med <= TARGET_MEDIAN, "median {med}");
     assert!(p90 <= MEASURED_P90, "p90 {p90}");
     assert!(max <= MEASURED_MAX, "max {max}");

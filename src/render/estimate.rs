@@ -16,9 +16,9 @@ use crate::denoise::luminance;
 use crate::sampling::brdf_sample::{brdf_pdf_local, sample_brdf, spec_lobe_probability};
 use crate::sampling::light::{LightSampler, sample_light_area_uniform};
 use crate::sampling::sequence::{sample_1d, sample_2d};
+use crate::shading::SurfacePoint;
 use crate::shading::brdf::{Frame, alpha_from_roughness, eval_local};
 use crate::shading::u_batch::{BatchLight, LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch};
-use crate::shading::{SurfacePoint, unshadowed_lobes_prepared};
 use glam::Vec3;
 
 pub fn mode_available(_mode: Mode) -> bool {
@@ -52,35 +52,10 @@ pub fn surface_point(g: &GSample) -> SurfacePoint {
     }
 }
 
-/// Analytic unshadowed light per light into `per_light`; returns their sum.
-/// Zero off surfaces.
-#[inline]
-pub fn analytic_u(world: &World, g: &GSample, per_light: &mut [Vec3]) -> Vec3 {
-    analytic_u_lobes(world, g, per_light).0
-}
-
-/// `analytic_u`, and the specular lobe's part of the sum (the denoiser's
-/// lobe guide weighs the specular lobe by its share of `U`).
-#[inline]
-pub fn analytic_u_lobes(world: &World, g: &GSample, per_light: &mut [Vec3]) -> (Vec3, Vec3) {
-    if g.kind != PixelKind::Surface {
-        per_light.fill(Vec3::ZERO);
-        return (Vec3::ZERO, Vec3::ZERO);
-    }
-    let sp = surface_point(g);
-    let (mut total, mut specular) = (Vec3::ZERO, Vec3::ZERO);
-    for (u, light) in per_light.iter_mut().zip(&world.shading_lights) {
-        let (d, s) = unshadowed_lobes_prepared(&sp, light);
-        *u = d + s;
-        total += *u;
-        specular += s;
-    }
-    (total, specular)
-}
-
-/// `analytic_u_lobes` for every pixel of a band, eight pixels at a time
-/// through the batched `U` (`shading::u_batch`; lanes it cannot vouch for
-/// take the scalar path): `per_light[k * lights + i]` gets light `i` at
+/// Analytic unshadowed light of every light at every pixel of a band (the
+/// frame's `U` stage), eight pixels at a time through the batched `U`
+/// (`shading::u_batch`; the lanes it cannot vouch for take the scalar
+/// path inside it): `per_light[k * lights + i]` gets light `i` at
 /// pixel `k`, `u[k]` their sum and `spec_share[k]` the specular lobe's share
 /// of it (luminance; 0 where `U` is 0). Zero off surfaces.
 pub fn analytic_u_band(
