@@ -7,7 +7,7 @@
 //!   varying normals) with N prepared quad lights, one thread.
 //! - `unshadowed_batch/quad` and `u_pass 1280x720/batched, N lights`: the
 //!   same through the batched path the renderer uses (`shading::u_batch`,
-//!   8 pixels at a time; each group's frame, LTC cell and correction
+//!   `LANES` pixels at a time; each group's frame, LTC cell and correction
 //!   constants are set up once for all its lights). The share of lanes the
 //!   batch hands to the scalar path is printed once.
 

@@ -6,7 +6,7 @@
 //! `cargo test --release --test ltc_validation -- --nocapture` prints the
 //! distribution (`PENUMBRA_LTC_DUMP=1`: every case). The same bounds are
 //! asserted for the batched U the renderer runs (`shading::u_batch`), each
-//! case in its own lane of a batch of eight whose other lanes hold the
+//! case in its own lane of a batch whose other lanes hold the
 //! same point seen from other angles.
 
 #[path = "ltc_support/mod.rs"]

@@ -1,4 +1,4 @@
-//! The batched `f32` U (`shading::u_batch`) against the scalar `f64` path,
+//! The batched U (`shading::u_batch`, `f64` lanes) against the scalar path,
 //! lane by lane, over random shading points and lights (triangles to
 //! octagons, one- and two-sided, near, far, tiny, huge, straddling the
 //! horizon, far from the origin).
@@ -6,9 +6,9 @@
 //! Stated tolerance, per channel: `U` (both lobes) and each lobe within 1e-4
 //! of the scalar value relative to the larger `U`, and the diffuse (Lambert)
 //! lobe within 1e-4 relative to itself (values under 1e-9 count as equal).
-//! The batch aims at `REL_TOL` = 2e-4 of an error bound that overestimates
-//! the measured error tens of times, and sends any lane it cannot vouch for
-//! to the scalar path.
+//! Measured worst: 1.5e-6 (the two paths run the same `f64` arithmetic in a
+//! different order). The batch sends any lane it cannot vouch for
+//! (`REL_TOL` = 2e-4 of its rounding bound) to the scalar path.
 
 use glam::{Quat, Vec3, vec3};
 use penumbra::scene::Light;
@@ -257,22 +257,23 @@ fn a_light_straddling_the_horizon_gets_the_scalar_answer_exactly() {
     assert!((1..LANES).all(|l| out.lane(l) == (Vec3::ZERO, Vec3::ZERO)));
 }
 
-/// One batch of eight lanes, each a hard case for one light, against the
-/// scalar path lane by lane (finite, >= 0, within `TOL`).
-fn check_lanes(light: &Light, points: &[SurfacePoint; LANES]) -> LaneCounts {
+/// Hard cases for one light, `LANES` to a batch, against the scalar path
+/// lane by lane (finite, >= 0, within `TOL`).
+fn check_lanes(light: &Light, points: &[SurfacePoint]) {
     let (bl, sl) = (BatchLight::new(light), ShadingLight::new(light));
-    let lanes = points.map(Some);
-    let mut out = LaneLobes::default();
-    let counts = lobes_batch(&PixelBatch::new(&lanes), &bl, &mut out);
-    for (l, sp) in points.iter().enumerate() {
-        let (got, want) = (out.lane(l), unshadowed_lobes_prepared(sp, &sl));
-        let d = deviation(got, want);
-        assert!(
-            d <= TOL,
-            "lane {l}: deviation {d}, batch {got:?}, scalar {want:?}, {sp:?}"
-        );
+    for group in points.chunks(LANES) {
+        let lanes: Vec<Option<SurfacePoint>> = group.iter().copied().map(Some).collect();
+        let mut out = LaneLobes::default();
+        lobes_batch(&PixelBatch::new(&lanes), &bl, &mut out);
+        for (l, sp) in group.iter().enumerate() {
+            let (got, want) = (out.lane(l), unshadowed_lobes_prepared(sp, &sl));
+            let d = deviation(got, want);
+            assert!(
+                d <= TOL,
+                "lane {l}: deviation {d}, batch {got:?}, scalar {want:?}, {sp:?}"
+            );
+        }
     }
-    counts
 }
 
 /// A point at `p` with normal `n`, seen from `view` (need not be unit).
@@ -288,7 +289,7 @@ fn lane(p: Vec3, n: Vec3, view: Vec3, roughness: f32) -> SurfacePoint {
 }
 
 #[test]
-fn hard_cases_mixed_into_one_batch_equal_the_scalar_path() {
+fn hard_cases_mixed_into_batches_equal_the_scalar_path() {
     // A 1x1 quad 1 above the origin, facing down; one- and two-sided.
     for two_sided in [false, true] {
         let light = polygon_light(
@@ -330,8 +331,8 @@ fn hard_cases_mixed_into_one_batch_equal_the_scalar_path() {
             Quat::from_rotation_x(std::f32::consts::PI),
             false,
         );
-        let points: [SurfacePoint; LANES] = std::array::from_fn(|l| {
-            let t = l as f32 / LANES as f32;
+        let points: [SurfacePoint; 8] = std::array::from_fn(|l| {
+            let t = l as f32 / 8.0;
             lane(
                 vec3(t * 0.1, 0.0, 0.0),
                 vec3(0.3 * t - 0.1, 0.0, 1.0).normalize(),

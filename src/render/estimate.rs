@@ -53,7 +53,7 @@ pub fn surface_point(g: &GSample) -> SurfacePoint {
 }
 
 /// Analytic unshadowed light of every light at every pixel of a band (the
-/// frame's `U` stage), eight pixels at a time through the batched `U`
+/// frame's `U` stage), `LANES` pixels at a time through the batched `U`
 /// (`shading::u_batch`; the lanes it cannot vouch for take the scalar
 /// path inside it): `per_light[k * lights + i]` gets light `i` at
 /// pixel `k`, `u[k]` their sum and `spec_share[k]` the specular lobe's share

@@ -1,17 +1,19 @@
-//! Eight lanes, one per pixel, for the batched `U` (`u_batch`) and its
+//! Four lanes, one per pixel, for the batched `U` (`u_batch`) and its
 //! shape correction (`ltc_correction::lobe_factors_lanes`). Elements are
 //! `f64` (`E`; see `u_batch` for why not `f32`).
 //!
-//! Every operation is a fixed loop over the eight elements, inlined always,
-//! which LLVM turns into vector instructions (two 4-wide AVX2 ones with the
-//! x86-64-v3 build of `.cargo/config.toml`, four SSE2 ones otherwise): no
-//! intrinsics, no `unsafe`. Comparisons give a mask `M8` of all-ones /
+//! Every operation is a fixed loop over the lanes, inlined always, which
+//! LLVM turns into vector instructions (one AVX2 instruction with the
+//! x86-64-v3 build of `.cargo/config.toml`, two SSE2 ones otherwise): no
+//! intrinsics, no `unsafe`. Four lanes, not eight: eight `f64` (two
+//! registers per value) ran 1.26x slower per evaluation (register spills;
+//! criterion `unshadowed_batch/quad`, README). Comparisons give a mask `Mask` of all-ones /
 //! all-zeros bit patterns, and selects are bitwise, so lanes never branch.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Pixels per batch.
-pub const LANES: usize = 8;
+pub const LANES: usize = 4;
 
 /// The lane element type.
 pub type E = f64;
@@ -19,12 +21,12 @@ pub type E = f64;
 /// One value per lane.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C, align(32))]
-pub struct F8(pub [E; LANES]);
+pub struct Wide(pub [E; LANES]);
 
 /// One lane mask: `!0` (true) or `0` (false) per lane.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(C, align(32))]
-pub struct M8(pub [u64; LANES]);
+pub struct Mask(pub [u64; LANES]);
 
 #[inline(always)]
 fn each<T: Copy + Default, const K: usize>(f: impl Fn(usize) -> T) -> [T; K] {
@@ -40,19 +42,19 @@ fn bit(b: bool) -> u64 {
     if b { !0 } else { 0 }
 }
 
-impl F8 {
-    pub const ZERO: F8 = F8([0.0; LANES]);
-    pub const ONE: F8 = F8([1.0; LANES]);
+impl Wide {
+    pub const ZERO: Wide = Wide([0.0; LANES]);
+    pub const ONE: Wide = Wide([1.0; LANES]);
 
     #[inline(always)]
-    pub fn splat(x: impl Into<E>) -> F8 {
-        F8([x.into(); LANES])
+    pub fn splat(x: impl Into<E>) -> Wide {
+        Wide([x.into(); LANES])
     }
 
     /// Lane `l` from `f(l)`.
     #[inline(always)]
-    pub fn from_fn(f: impl Fn(usize) -> f32) -> F8 {
-        F8(each(|l| E::from(f(l))))
+    pub fn from_fn(f: impl Fn(usize) -> f32) -> Wide {
+        Wide(each(|l| E::from(f(l))))
     }
 
     /// The lanes as `f32`.
@@ -62,23 +64,23 @@ impl F8 {
     }
 
     #[inline(always)]
-    pub fn map(self, f: impl Fn(E) -> E) -> F8 {
-        F8(each(|l| f(self.0[l])))
+    pub fn map(self, f: impl Fn(E) -> E) -> Wide {
+        Wide(each(|l| f(self.0[l])))
     }
 
     #[inline(always)]
-    pub fn zip(self, o: F8, f: impl Fn(E, E) -> E) -> F8 {
-        F8(each(|l| f(self.0[l], o.0[l])))
+    pub fn zip(self, o: Wide, f: impl Fn(E, E) -> E) -> Wide {
+        Wide(each(|l| f(self.0[l], o.0[l])))
     }
 
     /// `self * b + c`: one fused instruction where the target has FMA;
     /// a multiply and an add otherwise (`f32::mul_add` would be a library
     /// call per lane there).
     #[inline(always)]
-    pub fn mul_add(self, b: F8, c: F8) -> F8 {
+    pub fn mul_add(self, b: Wide, c: Wide) -> Wide {
         #[cfg(target_feature = "fma")]
         {
-            F8(each(|l| self.0[l].mul_add(b.0[l], c.0[l])))
+            Wide(each(|l| self.0[l].mul_add(b.0[l], c.0[l])))
         }
         #[cfg(not(target_feature = "fma"))]
         {
@@ -87,56 +89,56 @@ impl F8 {
     }
 
     #[inline(always)]
-    pub fn abs(self) -> F8 {
+    pub fn abs(self) -> Wide {
         self.map(E::abs)
     }
 
     #[inline(always)]
-    pub fn sqrt(self) -> F8 {
+    pub fn sqrt(self) -> Wide {
         self.map(E::sqrt)
     }
 
     /// Lane-wise minimum (`minps` semantics: written as a compare-select so
     /// no NaN handling is added).
     #[inline(always)]
-    pub fn min(self, o: F8) -> F8 {
+    pub fn min(self, o: Wide) -> Wide {
         self.zip(o, |a, b| if a < b { a } else { b })
     }
 
     #[inline(always)]
-    pub fn max(self, o: F8) -> F8 {
+    pub fn max(self, o: Wide) -> Wide {
         self.zip(o, |a, b| if a > b { a } else { b })
     }
 
     #[inline(always)]
-    pub fn clamp(self, lo: impl Into<E>, hi: impl Into<E>) -> F8 {
-        self.max(F8::splat(lo)).min(F8::splat(hi))
+    pub fn clamp(self, lo: impl Into<E>, hi: impl Into<E>) -> Wide {
+        self.max(Wide::splat(lo)).min(Wide::splat(hi))
     }
 
     #[inline(always)]
-    pub fn lt(self, o: F8) -> M8 {
-        M8(each(|l| bit(self.0[l] < o.0[l])))
+    pub fn lt(self, o: Wide) -> Mask {
+        Mask(each(|l| bit(self.0[l] < o.0[l])))
     }
 
     #[inline(always)]
-    pub fn le(self, o: F8) -> M8 {
-        M8(each(|l| bit(self.0[l] <= o.0[l])))
+    pub fn le(self, o: Wide) -> Mask {
+        Mask(each(|l| bit(self.0[l] <= o.0[l])))
     }
 
     #[inline(always)]
-    pub fn gt(self, o: F8) -> M8 {
+    pub fn gt(self, o: Wide) -> Mask {
         o.lt(self)
     }
 
     #[inline(always)]
-    pub fn ge(self, o: F8) -> M8 {
+    pub fn ge(self, o: Wide) -> Mask {
         o.le(self)
     }
 
     /// Finite lanes (not NaN, not infinite).
     #[inline(always)]
-    pub fn finite(self) -> M8 {
-        self.abs().lt(F8::splat(E::INFINITY))
+    pub fn finite(self) -> Mask {
+        self.abs().lt(Wide::splat(E::INFINITY))
     }
 
     /// Sum over the lanes.
@@ -146,42 +148,42 @@ impl F8 {
     }
 }
 
-impl M8 {
-    pub const NONE: M8 = M8([0; LANES]);
-    pub const ALL: M8 = M8([!0; LANES]);
+impl Mask {
+    pub const NONE: Mask = Mask([0; LANES]);
+    pub const ALL: Mask = Mask([!0; LANES]);
 
     #[inline(always)]
-    pub fn from_fn(f: impl Fn(usize) -> bool) -> M8 {
-        M8(each(|l| bit(f(l))))
+    pub fn from_fn(f: impl Fn(usize) -> bool) -> Mask {
+        Mask(each(|l| bit(f(l))))
     }
 
     /// `a` where the mask is set, `b` elsewhere.
     #[inline(always)]
-    pub fn select(self, a: F8, b: F8) -> F8 {
-        F8(each(|l| {
+    pub fn select(self, a: Wide, b: Wide) -> Wide {
+        Wide(each(|l| {
             E::from_bits((a.0[l].to_bits() & self.0[l]) | (b.0[l].to_bits() & !self.0[l]))
         }))
     }
 
     #[inline(always)]
-    pub fn and(self, o: M8) -> M8 {
-        M8(each(|l| self.0[l] & o.0[l]))
+    pub fn and(self, o: Mask) -> Mask {
+        Mask(each(|l| self.0[l] & o.0[l]))
     }
 
     #[inline(always)]
-    pub fn or(self, o: M8) -> M8 {
-        M8(each(|l| self.0[l] | o.0[l]))
+    pub fn or(self, o: Mask) -> Mask {
+        Mask(each(|l| self.0[l] | o.0[l]))
     }
 
     /// `self` and not `o`.
     #[inline(always)]
-    pub fn and_not(self, o: M8) -> M8 {
-        M8(each(|l| self.0[l] & !o.0[l]))
+    pub fn and_not(self, o: Mask) -> Mask {
+        Mask(each(|l| self.0[l] & !o.0[l]))
     }
 
     #[inline(always)]
-    pub fn invert(self) -> M8 {
-        M8(each(|l| !self.0[l]))
+    pub fn invert(self) -> Mask {
+        Mask(each(|l| !self.0[l]))
     }
 
     #[inline(always)]
@@ -195,56 +197,56 @@ impl M8 {
     }
 }
 
-impl Add for F8 {
-    type Output = F8;
+impl Add for Wide {
+    type Output = Wide;
     #[inline(always)]
-    fn add(self, o: F8) -> F8 {
+    fn add(self, o: Wide) -> Wide {
         self.zip(o, |a, b| a + b)
     }
 }
 
-impl Sub for F8 {
-    type Output = F8;
+impl Sub for Wide {
+    type Output = Wide;
     #[inline(always)]
-    fn sub(self, o: F8) -> F8 {
+    fn sub(self, o: Wide) -> Wide {
         self.zip(o, |a, b| a - b)
     }
 }
 
-impl Mul for F8 {
-    type Output = F8;
+impl Mul for Wide {
+    type Output = Wide;
     #[inline(always)]
-    fn mul(self, o: F8) -> F8 {
+    fn mul(self, o: Wide) -> Wide {
         self.zip(o, |a, b| a * b)
     }
 }
 
-impl Div for F8 {
-    type Output = F8;
+impl Div for Wide {
+    type Output = Wide;
     #[inline(always)]
-    fn div(self, o: F8) -> F8 {
+    fn div(self, o: Wide) -> Wide {
         self.zip(o, |a, b| a / b)
     }
 }
 
-impl Neg for F8 {
-    type Output = F8;
+impl Neg for Wide {
+    type Output = Wide;
     #[inline(always)]
-    fn neg(self) -> F8 {
+    fn neg(self) -> Wide {
         self.map(|a| -a)
     }
 }
 
 /// A vector of lanes: `[x, y, z]`.
-pub type V8 = [F8; 3];
+pub type Wide3 = [Wide; 3];
 
 #[inline(always)]
-pub fn dot(a: &V8, b: &V8) -> F8 {
+pub fn dot(a: &Wide3, b: &Wide3) -> Wide {
     a[0].mul_add(b[0], a[1].mul_add(b[1], a[2] * b[2]))
 }
 
 #[inline(always)]
-pub fn cross(a: &V8, b: &V8) -> V8 {
+pub fn cross(a: &Wide3, b: &Wide3) -> Wide3 {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -253,12 +255,12 @@ pub fn cross(a: &V8, b: &V8) -> V8 {
 }
 
 #[inline(always)]
-pub fn add3(a: &V8, b: &V8) -> V8 {
+pub fn add3(a: &Wide3, b: &Wide3) -> Wide3 {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 #[inline(always)]
-pub fn scale3(a: &V8, s: F8) -> V8 {
+pub fn scale3(a: &Wide3, s: Wide) -> Wide3 {
     [a[0] * s, a[1] * s, a[2] * s]
 }
 
@@ -268,20 +270,17 @@ mod tests {
 
     #[test]
     fn select_min_max_and_finite_act_per_lane() {
-        let a = F8::from_fn(|l| l as f32 - 3.5);
-        let b = F8::splat(0.0);
+        let a = Wide::from_fn(|l| l as f32 - 1.5);
+        let b = Wide::splat(0.0);
         let m = a.lt(b);
-        assert_eq!(
-            m.select(a, b).0,
-            [-3.5, -2.5, -1.5, -0.5, 0.0, 0.0, 0.0, 0.0]
-        );
+        assert_eq!(m.select(a, b).0, [-1.5, -0.5, 0.0, 0.0]);
         assert_eq!(a.min(b), m.select(a, b));
         assert_eq!(a.max(b), m.select(b, a));
         let mut c = a;
-        c.0[2] = E::NAN;
-        c.0[5] = E::INFINITY;
+        c.0[1] = E::NAN;
+        c.0[2] = E::INFINITY;
         let f = c.finite();
-        assert!(!f.lane(2) && !f.lane(5) && f.lane(0) && f.lane(7));
-        assert!(m.any() && !M8::NONE.any());
+        assert!(!f.lane(1) && !f.lane(2) && f.lane(0) && f.lane(3));
+        assert!(m.any() && !Mask::NONE.any());
     }
 }

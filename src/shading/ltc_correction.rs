@@ -28,7 +28,7 @@
 //! its divisions merged (a unit test checks it against `brdf::spec_local`),
 //! and a rational `atan` for the solid angles (max error 0.005 rad).
 
-use super::lanes::{self, F8, V8, add3, cross, dot, scale3};
+use super::lanes::{self, Wide, Wide3, add3, cross, dot, scale3};
 use super::ltc::LtcCell;
 use super::polygon::MAX_VERTICES;
 use glam::{DVec3, Vec3};
@@ -148,7 +148,7 @@ impl ExactLobes {
 ///   `alpha`: GGX alpha.
 ///
 /// One pixel through `lobe_factors_lanes` (in lane 0; the batched U runs
-/// eight), so the scalar and batched paths compute the same factor with
+/// `LANES`), so the scalar and batched paths compute the same factor with
 /// the same `f64` arithmetic.
 pub fn lobe_factors(
     poly: &[DVec3],
@@ -186,16 +186,16 @@ fn one_pixel<const N: usize>(
     k: &CorrectionLanes,
     (share_a, share_b): (f32, f32),
 ) -> (f32, f32) {
-    let u: [V8; N] = std::array::from_fn(|i| {
+    let u: [Wide3; N] = std::array::from_fn(|i| {
         // As the batch's `inv_len`: a vertex at the point stays zero.
         let v = poly[i];
         let v = v / v.length_squared().max(f64::MIN_POSITIVE).sqrt();
-        [F8::splat(v.x), F8::splat(v.y), F8::splat(v.z)]
+        [Wide::splat(v.x), Wide::splat(v.y), Wide::splat(v.z)]
     });
-    let dots: [F8; N] = std::array::from_fn(|i| {
+    let dots: [Wide; N] = std::array::from_fn(|i| {
         dot(&u[i], &u[if i + 1 == N { 0 } else { i + 1 }]).clamp(-1.0, 1.0)
     });
-    let (a, b) = lobe_factors_lanes(&u, &dots, k, F8::splat(share_a), F8::splat(share_b));
+    let (a, b) = lobe_factors_lanes(&u, &dots, k, Wide::splat(share_a), Wide::splat(share_b));
     (a.0[0] as f32, b.0[0] as f32)
 }
 
@@ -204,19 +204,19 @@ fn one_pixel<const N: usize>(
 /// `lobe_factors` builds them for one pixel.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CorrectionLanes {
-    ma: [F8; 4],
-    kda: F8,
-    kca: F8,
-    maga: F8,
-    mb: [F8; 4],
-    kdb: F8,
-    kcb: F8,
-    magb: F8,
-    wox: F8,
-    woz: F8,
-    a2: F8,
-    lo2: F8,
-    k: F8,
+    ma: [Wide; 4],
+    kda: Wide,
+    kca: Wide,
+    maga: Wide,
+    mb: [Wide; 4],
+    kdb: Wide,
+    kcb: Wide,
+    magb: Wide,
+    wox: Wide,
+    woz: Wide,
+    a2: Wide,
+    lo2: Wide,
+    k: Wide,
 }
 
 impl CorrectionLanes {
@@ -230,75 +230,75 @@ impl CorrectionLanes {
             std::array::from_fn(|l| LobeModel::pair(&cells[l]));
         let exact: [ExactLobes; lanes::LANES] =
             std::array::from_fn(|l| ExactLobes::new(wo[l], alpha[l]));
-        let a = |k: usize| F8::from_fn(|l| models[l].0.m[k]);
-        let b = |k: usize| F8::from_fn(|l| models[l].1.m[k]);
+        let a = |k: usize| Wide::from_fn(|l| models[l].0.m[k]);
+        let b = |k: usize| Wide::from_fn(|l| models[l].1.m[k]);
         CorrectionLanes {
             ma: [a(0), a(1), a(2), a(3)],
-            kda: F8::from_fn(|l| models[l].0.kd),
-            kca: F8::from_fn(|l| models[l].0.kc),
-            maga: F8::from_fn(|l| models[l].0.mag),
+            kda: Wide::from_fn(|l| models[l].0.kd),
+            kca: Wide::from_fn(|l| models[l].0.kc),
+            maga: Wide::from_fn(|l| models[l].0.mag),
             mb: [b(0), b(1), b(2), b(3)],
-            kdb: F8::from_fn(|l| models[l].1.kd),
-            kcb: F8::from_fn(|l| models[l].1.kc),
-            magb: F8::from_fn(|l| models[l].1.mag),
-            wox: F8::from_fn(|l| exact[l].wo.x),
-            woz: F8::from_fn(|l| exact[l].wo.z),
-            a2: F8::from_fn(|l| exact[l].a2),
-            lo2: F8::from_fn(|l| exact[l].lo2),
-            k: F8::from_fn(|l| exact[l].k),
+            kdb: Wide::from_fn(|l| models[l].1.kd),
+            kcb: Wide::from_fn(|l| models[l].1.kc),
+            magb: Wide::from_fn(|l| models[l].1.mag),
+            wox: Wide::from_fn(|l| exact[l].wo.x),
+            woz: Wide::from_fn(|l| exact[l].wo.z),
+            a2: Wide::from_fn(|l| exact[l].a2),
+            lo2: Wide::from_fn(|l| exact[l].lo2),
+            k: Wide::from_fn(|l| exact[l].k),
         }
     }
 }
 
 /// `LobeModel::value` per lane.
 #[inline(always)]
-fn model_lanes(m: &[F8; 4], kd: F8, kc: F8, w: &V8) -> F8 {
+fn model_lanes(m: &[Wide; 4], kd: Wide, kc: Wide, w: &Wide3) -> Wide {
     let ox = m[0].mul_add(w[0], m[1] * w[2]);
     let oz = m[2].mul_add(w[0], m[3] * w[2]);
     let l2 = ox.mul_add(ox, w[1].mul_add(w[1], oz * oz));
     kc.mul_add(
         w[2],
-        kd * oz.max(F8::ZERO) / (l2 * l2).max(F8::splat(1e-30)),
+        kd * oz.max(Wide::ZERO) / (l2 * l2).max(Wide::splat(1e-30)),
     )
 }
 
 /// `ExactLobes::eval` per lane.
 #[inline(always)]
-fn exact_lanes(k: &CorrectionLanes, w: &V8) -> (F8, F8) {
+fn exact_lanes(k: &CorrectionLanes, w: &Wide3) -> (Wide, Wide) {
     let h = [w[0] + k.wox, w[1], w[2] + k.woz];
-    let l2 = dot(&h, &h).max(F8::splat(1e-30));
+    let l2 = dot(&h, &h).max(Wide::splat(1e-30));
     let hxy = h[0].mul_add(h[0], h[1] * h[1]);
     let q = (k.a2 * h[2]).mul_add(h[2], hxy);
-    let c = w[2].max(F8::splat(MIN_COS));
+    let c = w[2].max(Wide::splat(MIN_COS));
     let wxy = w[0].mul_add(w[0], w[1] * w[1]);
     let t = c.mul_add(c, k.a2 * wxy).sqrt();
     let num = k.a2 * l2 * l2 * w[2];
-    let den = (k.k * q * q * c.mul_add(k.lo2, t)).max(F8::splat(1e-30));
+    let den = (k.k * q * q * c.mul_add(k.lo2, t)).max(Wide::splat(1e-30));
     let len = l2.sqrt();
-    let inv = F8::ONE / (den * len);
+    let inv = Wide::ONE / (den * len);
     let a = num * len * inv;
     let wo_w = k.wox.mul_add(w[0], k.woz * w[2]);
-    let cos_oh = (wo_w + F8::ONE) * den * inv;
-    let m = F8::ONE - cos_oh.clamp(0.0, 1.0);
+    let cos_oh = (wo_w + Wide::ONE) * den * inv;
+    let m = Wide::ONE - cos_oh.clamp(0.0, 1.0);
     let m2 = m * m;
     (a, a * m2 * m2 * m)
 }
 
 /// `atan2_pos` per lane (the same octant reduction, as selects).
 #[inline(always)]
-fn atan2_pos_lanes(y: F8, x: F8) -> F8 {
+fn atan2_pos_lanes(y: Wide, x: Wide) -> Wide {
     let steep = x.abs().lt(y);
     let num = steep.select(-x, y);
     let den = steep.select(y, x);
     let base = steep.select(
-        F8::splat(FRAC_PI_2),
-        x.lt(F8::ZERO).select(F8::splat(PI), F8::ZERO),
+        Wide::splat(FRAC_PI_2),
+        x.lt(Wide::ZERO).select(Wide::splat(PI), Wide::ZERO),
     );
-    let d = den.mul_add(den, F8::splat(0.28086) * num * num);
-    base + num * den / d.max(F8::splat(1e-30))
+    let d = den.mul_add(den, Wide::splat(0.28086) * num * num);
+    base + num * den / d.max(Wide::splat(1e-30))
 }
 
-/// `lobe_factors` for eight pixels at once, across pixels: lane `l` is one
+/// `lobe_factors` for `LANES` pixels at once, across pixels: lane `l` is one
 /// pixel's light polygon (never clipped: the batch sends clipped lanes to
 /// the scalar path), given by its `N` unit vertices `u` (zero for a vertex
 /// at the shading point) and the cosines `dots[i] = u[i] . u[i + 1]`, which
@@ -306,28 +306,28 @@ fn atan2_pos_lanes(y: F8, x: F8) -> F8 {
 /// fades as `lobe_factors`; `tests/u_batch.rs` checks the two agree.
 #[inline(always)]
 pub fn lobe_factors_lanes<const N: usize>(
-    u: &[V8; N],
-    dots: &[F8; N],
+    u: &[Wide3; N],
+    dots: &[Wide; N],
     k: &CorrectionLanes,
-    share_a: F8,
-    share_b: F8,
-) -> (F8, F8) {
-    let mut c = [F8::ZERO; 3];
+    share_a: Wide,
+    share_b: Wide,
+) -> (Wide, Wide) {
+    let mut c = [Wide::ZERO; 3];
     for v in u {
         c = add3(&c, v);
     }
-    let c = scale3(&c, F8::ONE / dot(&c, &c).max(F8::splat(1e-30)).sqrt());
-    let cu: [F8; N] = std::array::from_fn(|i| dot(&c, &u[i]));
-    let mut sums = [F8::ZERO; 4];
+    let c = scale3(&c, Wide::ONE / dot(&c, &c).max(Wide::splat(1e-30)).sqrt());
+    let cu: [Wide; N] = std::array::from_fn(|i| dot(&c, &u[i]));
+    let mut sums = [Wide::ZERO; 4];
     for i in 0..N {
         let j = if i + 1 == N { 0 } else { i + 1 };
         let (a, b) = (&u[i], &u[j]);
         let num = dot(&c, &cross(a, b)).abs();
-        let den = F8::ONE + cu[i] + dots[i] + cu[j];
-        let omega = F8::splat(2.0) * atan2_pos_lanes(num, den);
+        let den = Wide::ONE + cu[i] + dots[i] + cu[j];
+        let omega = Wide::splat(2.0) * atan2_pos_lanes(num, den);
         let m = add3(&add3(&c, a), b);
-        let w = scale3(&m, F8::ONE / dot(&m, &m).max(F8::splat(1e-30)).sqrt());
-        let wt = w[2].gt(F8::ZERO).select(omega, F8::ZERO);
+        let w = scale3(&m, Wide::ONE / dot(&m, &m).max(Wide::splat(1e-30)).sqrt());
+        let wt = w[2].gt(Wide::ZERO).select(omega, Wide::ZERO);
         let (ea, eb) = exact_lanes(k, &w);
         sums[0] = wt.mul_add(ea, sums[0]);
         sums[1] = wt.mul_add(eb, sums[1]);
@@ -342,20 +342,21 @@ pub fn lobe_factors_lanes<const N: usize>(
 
 /// `factor` per lane.
 #[inline(always)]
-fn factor_lanes(qf: F8, qg: F8, share: F8, mag: F8) -> F8 {
+fn factor_lanes(qf: Wide, qg: Wide, share: Wide, mag: Wide) -> Wide {
     let s = share.clamp(0.0, 1.0);
     let ltc = s * mag;
-    let inv = F8::ONE / (qg * ltc);
-    let r = (qf * ltc * inv).min(F8::splat(MAX_RATIO));
-    let trust = (F8::ONE - (qg * qg * inv - F8::ONE).abs() * F8::splat(1.0 / TRUST)).max(F8::ZERO);
-    let k = F8::ONE + (r - F8::ONE) * trust * (F8::ONE - s);
+    let inv = Wide::ONE / (qg * ltc);
+    let r = (qf * ltc * inv).min(Wide::splat(MAX_RATIO));
+    let trust =
+        (Wide::ONE - (qg * qg * inv - Wide::ONE).abs() * Wide::splat(1.0 / TRUST)).max(Wide::ZERO);
+    let k = Wide::ONE + (r - Wide::ONE) * trust * (Wide::ONE - s);
     let ok = qg
-        .gt(F8::ZERO)
-        .and(ltc.gt(F8::ZERO))
-        .and(qf.ge(F8::ZERO))
+        .gt(Wide::ZERO)
+        .and(ltc.gt(Wide::ZERO))
+        .and(qf.ge(Wide::ZERO))
         .and(inv.finite())
         .and(k.finite());
-    ok.select(k.clamp(0.0, MAX_RATIO), F8::ONE)
+    ok.select(k.clamp(0.0, MAX_RATIO), Wide::ONE)
 }
 
 #[cfg(test)]
@@ -386,7 +387,7 @@ mod tests {
                         &[wo; lanes::LANES],
                         &[alpha; lanes::LANES],
                     );
-                    let wl = [F8::splat(w.x), F8::splat(w.y), F8::splat(w.z)];
+                    let wl = [Wide::splat(w.x), Wide::splat(w.y), Wide::splat(w.z)];
                     let (la, lb) = exact_lanes(&k, &wl);
                     assert!(
                         (la.0[0] as f32 - a).abs() <= 1e-4 * a + 1e-9,
@@ -414,7 +415,7 @@ mod tests {
         for k in 0..=2000 {
             let t = PI * k as f32 / 2000.0;
             let (y, x) = (t.sin(), t.cos());
-            let got = atan2_pos_lanes(F8::splat(y), F8::splat(x)).0[0];
+            let got = atan2_pos_lanes(Wide::splat(y), Wide::splat(x)).0[0];
             assert!((got - t as f64).abs() < 0.005, "{t}");
         }
     }

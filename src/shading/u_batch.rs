@@ -1,5 +1,5 @@
-//! The analytic unshadowed light `U` of `unshadowed` for eight pixels at a
-//! time, one pixel per lane (`lanes::F8`, `f64` elements), branch-free
+//! The analytic unshadowed light `U` of `unshadowed` for `LANES` (4) pixels at a
+//! time, one pixel per lane (`lanes::Wide`, `f64` elements), branch-free
 //! within a batch: the three contour sums (the Lambert form factor and the
 //! two LTC lobes), the clipping of the LTC images to their horizon, and the
 //! LTC shape correction (`ltc_correction::lobe_factors_lanes`) all run
@@ -32,7 +32,7 @@
 //! path.
 
 use super::brdf::{Frame, alpha_from_roughness, has_specular_lobe};
-use super::lanes::{E, F8, M8, V8, dot};
+use super::lanes::{E, Mask, Wide, Wide3, dot};
 use super::ltc::{self, LtcCell};
 use super::ltc_correction::{CorrectionLanes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
@@ -97,30 +97,30 @@ impl BatchLight {
 pub struct PixelBatch {
     sp: [SurfacePoint; LANES],
     /// Lanes that hold a point (the rest of a row's last batch is padding).
-    active: M8,
-    p: V8,
+    active: Mask,
+    p: Wide3,
     /// Rows of each lane's local frame: x, y, z (= normal), world vectors.
-    frame: [V8; 3],
-    kd: V8,
-    ks: V8,
+    frame: [Wide3; 3],
+    kd: Wide3,
+    ks: Wide3,
     /// Lanes with a specular lobe, and those of them whose LTC lobes A (F0)
     /// and B (Schlick) carry weight.
-    lobe: M8,
-    want_a: M8,
-    want_b: M8,
+    lobe: Mask,
+    want_a: Mask,
+    want_b: Mask,
     /// `M^-1` of lobe A and of lobe B: m00, m02, m20, m22; their infinity
     /// norms (for the error bound).
-    ma: [F8; 4],
-    mb: [F8; 4],
-    norm_a: F8,
-    norm_b: F8,
+    ma: [Wide; 4],
+    mb: [Wide; 4],
+    norm_a: Wide,
+    norm_b: Wide,
     /// Each lobe's LTC integral and cosine share: `share = w ltc + mix ff`.
-    wa: F8,
-    mix: F8,
-    wb: F8,
-    fmix: F8,
-    mag: F8,
-    fres: F8,
+    wa: Wide,
+    mix: Wide,
+    wb: Wide,
+    fmix: Wide,
+    mag: Wide,
+    fres: Wide,
     corr: CorrectionLanes,
 }
 
@@ -179,25 +179,25 @@ impl PixelBatch {
                 alpha[l] = alpha_from_roughness(s.roughness);
             }
         }
-        let lane3 = |f: &[Vec3; LANES]| -> V8 {
+        let lane3 = |f: &[Vec3; LANES]| -> Wide3 {
             [
-                F8::from_fn(|l| f[l].x),
-                F8::from_fn(|l| f[l].y),
-                F8::from_fn(|l| f[l].z),
+                Wide::from_fn(|l| f[l].x),
+                Wide::from_fn(|l| f[l].y),
+                Wide::from_fn(|l| f[l].z),
             ]
         };
         let cells = cell.map(|c| c.to_array());
-        let cf = |k: usize| F8::from_fn(|l| cells[l][k]);
+        let cf = |k: usize| Wide::from_fn(|l| cells[l][k]);
         let ma = [cf(0), cf(1), cf(2), cf(3)];
         let mb = [cf(7), cf(8), cf(9), cf(10)];
-        let norm = |m: &[F8; 4]| {
+        let norm = |m: &[Wide; 4]| {
             (m[0].abs() + m[1].abs())
                 .max(m[2].abs() + m[3].abs())
-                .max(F8::ONE)
+                .max(Wide::ONE)
         };
-        let lobe = M8::from_fn(|l| lobe[l]);
+        let lobe = Mask::from_fn(|l| lobe[l]);
         PixelBatch {
-            active: M8::from_fn(|l| active[l]),
+            active: Mask::from_fn(|l| active[l]),
             p: lane3(&sp.map(|s| s.p)),
             frame: [
                 lane3(&frames.map(|f| f.x)),
@@ -207,15 +207,15 @@ impl PixelBatch {
             kd: lane3(&sp.map(|s| s.diffuse)),
             ks: lane3(&sp.map(|s| s.specular)),
             lobe,
-            want_a: lobe.and(M8::from_fn(|l| sp[l].specular.max_element() > 0.0)),
-            want_b: lobe.and(M8::from_fn(|l| sp[l].specular.min_element() < 1.0)),
+            want_a: lobe.and(Mask::from_fn(|l| sp[l].specular.max_element() > 0.0)),
+            want_b: lobe.and(Mask::from_fn(|l| sp[l].specular.min_element() < 1.0)),
             norm_a: norm(&ma),
             norm_b: norm(&mb),
             ma,
             mb,
-            wa: (F8::ONE - cf(6)) / cf(5),
+            wa: (Wide::ONE - cf(6)) / cf(5),
             mix: cf(6),
-            wb: (F8::ONE - cf(13)) / cf(12),
+            wb: (Wide::ONE - cf(13)) / cf(12),
             fmix: cf(13),
             mag: cf(4),
             fres: cf(11),
@@ -283,24 +283,24 @@ pub fn lobes_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) 
     }
 }
 
-fn count(m: M8) -> u64 {
+fn count(m: Mask) -> u64 {
     m.0.iter().filter(|&&b| b != 0).count() as u64
 }
 
 #[inline(always)]
-fn splat3(v: [impl Into<E> + Copy; 3]) -> V8 {
-    [F8::splat(v[0]), F8::splat(v[1]), F8::splat(v[2])]
+fn splat3(v: [impl Into<E> + Copy; 3]) -> Wide3 {
+    [Wide::splat(v[0]), Wide::splat(v[1]), Wide::splat(v[2])]
 }
 
 /// `d` in the local frame whose rows (world vectors) are `frame`.
 #[inline(always)]
-fn rotate(frame: &[V8; 3], d: &V8) -> V8 {
+fn rotate(frame: &[Wide3; 3], d: &Wide3) -> Wide3 {
     [dot(&frame[0], d), dot(&frame[1], d), dot(&frame[2], d)]
 }
 
 /// The LTC image `M^-1 v` (m = m00, m02, m20, m22).
 #[inline(always)]
-fn ltc_map(m: &[F8; 4], v: &V8) -> V8 {
+fn ltc_map(m: &[Wide; 4], v: &Wide3) -> Wide3 {
     [
         m[0].mul_add(v[0], m[1] * v[2]),
         v[1],
@@ -310,8 +310,8 @@ fn ltc_map(m: &[F8; 4], v: &V8) -> V8 {
 
 /// `1 / |v|` per lane (a zero vector stays finite: its edges add 0).
 #[inline(always)]
-fn inv_len(v: &V8) -> F8 {
-    F8::ONE / dot(v, v).max(F8::splat(E::MIN_POSITIVE)).sqrt()
+fn inv_len(v: &Wide3) -> Wide {
+    Wide::ONE / dot(v, v).max(Wide::splat(E::MIN_POSITIVE)).sqrt()
 }
 
 /// Its relative error bound (`polygon::theta_over_sin_pos`, degree 10,
@@ -321,25 +321,27 @@ const POLY_ERR_F64: E = 3e-9;
 /// `theta / sin(theta)` for `x = cos(theta)` in [0, 1]: the scalar path's
 /// polynomial, per lane.
 #[inline(always)]
-fn theta_over_sin_pos(x: F8) -> F8 {
+fn theta_over_sin_pos(x: Wide) -> Wide {
     x.map(super::polygon::theta_over_sin_pos)
 }
 
 /// `theta / sin(theta)` for x in [-1, 1] (already clamped): below 0,
 /// `pi / sin - theta' / sin`, as `polygon::theta_over_sin`.
 #[inline(always)]
-fn theta_over_sin(x: F8) -> F8 {
+fn theta_over_sin(x: Wide) -> Wide {
     let p = theta_over_sin_pos(x.abs());
-    let s = ((F8::ONE - x) * (F8::ONE + x)).max(F8::splat(1e-30)).sqrt();
-    let far = F8::splat(std::f64::consts::PI) / s - p;
-    x.ge(F8::ZERO).select(p, far)
+    let s = ((Wide::ONE - x) * (Wide::ONE + x))
+        .max(Wide::splat(1e-30))
+        .sqrt();
+    let far = Wide::splat(std::f64::consts::PI) / s - p;
+    x.ge(Wide::ZERO).select(p, far)
 }
 
 /// One edge from `a` (inverse length `ia`) along `e` to `b` (inverse length
 /// `ib`): its cosine (clamped), its `z . (a x b) / (|a| |b|)` and the
 /// magnitude its rounding error scales with.
 #[inline(always)]
-fn edge_parts(a: &V8, b: &V8, e: &V8, ia: F8, ib: F8) -> (F8, F8, F8) {
+fn edge_parts(a: &Wide3, b: &Wide3, e: &Wide3, ia: Wide, ib: Wide) -> (Wide, Wide, Wide) {
     let w = ia * ib;
     let d = (dot(a, b) * w).clamp(-1.0, 1.0);
     // (a x b).z = (a x (b - a)).z: no cancellation between near-equal vertices.
@@ -353,14 +355,19 @@ fn edge_parts(a: &V8, b: &V8, e: &V8, ia: F8, ib: F8) -> (F8, F8, F8) {
 /// counts (`live`) has an edge wider than 90 degrees (rare: very wide
 /// polygons).
 #[inline(always)]
-fn sum_terms<const K: usize>(dot: &[F8; K], cz: &[F8; K], size: &[F8; K], live: M8) -> (F8, F8) {
-    let mut wide = M8::NONE;
+fn sum_terms<const K: usize>(
+    dot: &[Wide; K],
+    cz: &[Wide; K],
+    size: &[Wide; K],
+    live: Mask,
+) -> (Wide, Wide) {
+    let mut wide = Mask::NONE;
     for d in dot {
-        wide = wide.or(d.lt(F8::ZERO));
+        wide = wide.or(d.lt(Wide::ZERO));
     }
     let wide = wide.and(live).any();
-    let mut sum = F8::ZERO;
-    let mut bound = F8::ZERO;
+    let mut sum = Wide::ZERO;
+    let mut bound = Wide::ZERO;
     for i in 0..K {
         let t = if wide {
             theta_over_sin(dot[i])
@@ -380,20 +387,20 @@ fn sum_terms<const K: usize>(dot: &[F8; K], cz: &[F8; K], size: &[F8; K], live: 
 #[allow(clippy::type_complexity)]
 #[inline(always)]
 fn lambert_sum<const N: usize>(
-    q: &[V8; N],
-    e: &[V8; N],
-    live: M8,
-) -> (F8, F8, [F8; N], [V8; N], [F8; N]) {
-    let inv: [F8; N] = std::array::from_fn(|i| inv_len(&q[i]));
-    let mut dots = [F8::ZERO; N];
-    let mut cz = [F8::ZERO; N];
-    let mut size = [F8::ZERO; N];
+    q: &[Wide3; N],
+    e: &[Wide3; N],
+    live: Mask,
+) -> (Wide, Wide, [Wide; N], [Wide3; N], [Wide; N]) {
+    let inv: [Wide; N] = std::array::from_fn(|i| inv_len(&q[i]));
+    let mut dots = [Wide::ZERO; N];
+    let mut cz = [Wide::ZERO; N];
+    let mut size = [Wide::ZERO; N];
     for i in 0..N {
         let j = if i + 1 == N { 0 } else { i + 1 };
         (dots[i], cz[i], size[i]) = edge_parts(&q[i], &q[j], &e[i], inv[i], inv[j]);
     }
     let (sum, bound) = sum_terms(&dots, &cz, &size, live);
-    let u: [V8; N] =
+    let u: [Wide3; N] =
         std::array::from_fn(|i| [q[i][0] * inv[i], q[i][1] * inv[i], q[i][2] * inv[i]]);
     (sum, bound, inv, u, dots)
 }
@@ -403,28 +410,28 @@ fn lambert_sum<const N: usize>(
 /// and the factor by which the image magnifies the local rounding.
 #[inline(always)]
 fn ltc_sum<const N: usize>(
-    m: &[F8; 4],
-    norm: F8,
-    q: &[V8; N],
-    e: &[V8; N],
-    inv_l: &[F8; N],
-    live: M8,
-) -> (F8, F8, F8) {
-    let qi: [V8; N] = std::array::from_fn(|i| ltc_map(m, &q[i]));
-    let ei: [V8; N] = std::array::from_fn(|i| ltc_map(m, &e[i]));
-    let inv: [F8; N] = std::array::from_fn(|i| inv_len(&qi[i]));
-    let mut gain = F8::ZERO;
-    let mut clips = M8::NONE;
+    m: &[Wide; 4],
+    norm: Wide,
+    q: &[Wide3; N],
+    e: &[Wide3; N],
+    inv_l: &[Wide; N],
+    live: Mask,
+) -> (Wide, Wide, Wide) {
+    let qi: [Wide3; N] = std::array::from_fn(|i| ltc_map(m, &q[i]));
+    let ei: [Wide3; N] = std::array::from_fn(|i| ltc_map(m, &e[i]));
+    let inv: [Wide; N] = std::array::from_fn(|i| inv_len(&qi[i]));
+    let mut gain = Wide::ZERO;
+    let mut clips = Mask::NONE;
     for i in 0..N {
         gain = gain.max(inv[i] / inv_l[i]);
-        clips = clips.or(qi[i][2].lt(F8::ZERO));
+        clips = clips.or(qi[i][2].lt(Wide::ZERO));
     }
     let (sum, bound) = if clips.and(live).any() {
         clipped_sum(&qi, &ei, &inv, live)
     } else {
-        let mut dots = [F8::ZERO; N];
-        let mut cz = [F8::ZERO; N];
-        let mut size = [F8::ZERO; N];
+        let mut dots = [Wide::ZERO; N];
+        let mut cz = [Wide::ZERO; N];
+        let mut size = [Wide::ZERO; N];
         for i in 0..N {
             let j = if i + 1 == N { 0 } else { i + 1 };
             (dots[i], cz[i], size[i]) = edge_parts(&qi[i], &qi[j], &ei[i], inv[i], inv[j]);
@@ -441,14 +448,19 @@ fn ltc_sum<const N: usize>(
 /// precision), and one more edge along the horizon joins the exit crossing
 /// to the entry crossing (a convex polygon has at most one of each).
 #[inline(always)]
-fn clipped_sum<const N: usize>(q: &[V8; N], e: &[V8; N], inv_v: &[F8; N], live: M8) -> (F8, F8) {
-    let zero = F8::ZERO;
+fn clipped_sum<const N: usize>(
+    q: &[Wide3; N],
+    e: &[Wide3; N],
+    inv_v: &[Wide; N],
+    live: Mask,
+) -> (Wide, Wide) {
+    let zero = Wide::ZERO;
     let mut dots = [zero; N];
     let mut cz = [zero; N];
     let mut size = [zero; N];
     let mut exit = [zero; 3];
     let mut entry = [zero; 3];
-    let mut crossed = M8::NONE;
+    let mut crossed = Mask::NONE;
     for i in 0..N {
         let j = if i + 1 == N { 0 } else { i + 1 };
         let (a, b, ev) = (&q[i], &q[j], &e[i]);
@@ -456,7 +468,7 @@ fn clipped_sum<const N: usize>(q: &[V8; N], e: &[V8; N], inv_v: &[F8; N], live: 
         // Crossing parameter (used only where the signs differ, so
         // za - zb is not 0 there).
         let dz = a[2] - b[2];
-        let dz = dz.abs().gt(zero).select(dz, F8::ONE);
+        let dz = dz.abs().gt(zero).select(dz, Wide::ONE);
         let t = (a[2] / dz).clamp(0.0, 1.0);
         let x = [ev[0].mul_add(t, a[0]), ev[1].mul_add(t, a[1]), zero];
         let start = [
@@ -472,9 +484,9 @@ fn clipped_sum<const N: usize>(q: &[V8; N], e: &[V8; N], inv_v: &[F8; N], live: 
         // Share of the edge vector kept: 1, t, 1 - t or 0 (one term only).
         let leaving = ina.and_not(inb);
         let arriving = inb.and_not(ina);
-        let k = ina.and(inb).select(F8::ONE, zero)
+        let k = ina.and(inb).select(Wide::ONE, zero)
             + leaving.select(t, zero)
-            + arriving.select(F8::ONE - t, zero);
+            + arriving.select(Wide::ONE - t, zero);
         let ek = [ev[0] * k, ev[1] * k, ev[2] * k];
         let ix = inv_len(&x);
         let ia = ina.select(inv_v[i], ix);
@@ -497,15 +509,15 @@ fn clipped_sum<const N: usize>(q: &[V8; N], e: &[V8; N], inv_v: &[F8; N], live: 
     let (ex, en) = (inv_len(&exit), inv_len(&entry));
     let along = [entry[0] - exit[0], entry[1] - exit[1], entry[2] - exit[2]];
     let (d, c, s) = edge_parts(&exit, &entry, &along, ex, en);
-    let s = crossed.select(s + F8::splat(2.0), zero);
+    let s = crossed.select(s + Wide::splat(2.0), zero);
     let (hsum, hbound) = sum_terms(&[d], &[c], &[s], live);
     (sum + hsum, bound + hbound)
 }
 
 /// `min(|sum| / 2π, 1)`: a contour sum as the form factor of its polygon.
 #[inline(always)]
-fn form_factor(sum: F8) -> F8 {
-    (sum.abs() * F8::splat(0.5 / std::f64::consts::PI)).min(F8::ONE)
+fn form_factor(sum: Wide) -> Wide {
+    (sum.abs() * Wide::splat(0.5 / std::f64::consts::PI)).min(Wide::ONE)
 }
 
 #[inline(always)]
@@ -517,11 +529,11 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
     let d0 = [p[0] - v0[0], p[1] - v0[1], p[2] - v0[2]];
     let side = dot(&splat3(light.normal), &d0);
     let reach = d0[0].abs() + d0[1].abs() + d0[2].abs();
-    let near = side.abs().le(reach * F8::splat(SIDE_TOL));
+    let near = side.abs().le(reach * Wide::splat(SIDE_TOL));
     let lit = if light.two_sided {
-        side.abs().gt(F8::ZERO)
+        side.abs().gt(Wide::ZERO)
     } else {
-        side.gt(F8::ZERO)
+        side.gt(Wide::ZERO)
     };
     let go = b.active.and(lit.or(near));
     if !go.any() {
@@ -533,10 +545,10 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
 
     // The light in each lane's local frame: vertices relative to the point,
     // and edges rotated from the light's own (exact) edge vectors.
-    let mut q = [[F8::ZERO; 3]; N];
-    let mut e = [[F8::ZERO; 3]; N];
-    let mut min_z = F8::splat(E::INFINITY);
-    let mut max_z = F8::splat(E::NEG_INFINITY);
+    let mut q = [[Wide::ZERO; 3]; N];
+    let mut e = [[Wide::ZERO; 3]; N];
+    let mut min_z = Wide::splat(E::INFINITY);
+    let mut max_z = Wide::splat(E::NEG_INFINITY);
     for i in 0..N {
         let v = splat3(light.v[i]);
         q[i] = rotate(&b.frame, &[v[0] - p[0], v[1] - p[1], v[2] - p[2]]);
@@ -544,25 +556,25 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
         min_z = min_z.min(q[i][2]);
         max_z = max_z.max(q[i][2]);
     }
-    let under = max_z.le(F8::ZERO);
-    let mut hard = go.and(near.or(min_z.lt(F8::ZERO).and_not(under)));
+    let under = max_z.le(Wide::ZERO);
+    let mut hard = go.and(near.or(min_z.lt(Wide::ZERO).and_not(under)));
 
     let fast = go.and_not(hard).and_not(under);
 
     if fast.any() {
-        let eps = F8::splat(ERR_ULPS * E::EPSILON * 0.5 + POLY_ERR_F64);
+        let eps = Wide::splat(ERR_ULPS * E::EPSILON * 0.5 + POLY_ERR_F64);
         let (sum_l, bnd_l, inv_l, u, dots) = lambert_sum(&q, &e, fast);
         let ff = form_factor(sum_l);
-        let err_l = eps * bnd_l * F8::splat(0.5 / std::f64::consts::PI);
-        let mut spec = [F8::ZERO; 3];
-        let mut spec_err = [F8::ZERO; 3];
+        let err_l = eps * bnd_l * Wide::splat(0.5 / std::f64::consts::PI);
+        let mut spec = [Wide::ZERO; 3];
+        let mut spec_err = [Wide::ZERO; 3];
         let lobe = fast.and(b.lobe);
         if lobe.any() {
-            let lobe_sum = |m, norm, want: M8| {
+            let lobe_sum = |m, norm, want: Mask| {
                 if want.any() {
                     ltc_sum(m, norm, &q, &e, &inv_l, want)
                 } else {
-                    (F8::ZERO, F8::ZERO, F8::ZERO)
+                    (Wide::ZERO, Wide::ZERO, Wide::ZERO)
                 }
             };
             let (sum_a, bnd_a, gain_a) = lobe_sum(&b.ma, b.norm_a, lobe.and(b.want_a));
@@ -570,27 +582,28 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
             let share_a = b.wa.mul_add(form_factor(sum_a), b.mix * ff);
             let share_b = b.wb.mul_add(form_factor(sum_b), b.fmix * ff);
             let (ka, kb) = lobe_factors_lanes(&u, &dots, &b.corr, share_a, share_b);
-            let err_a = eps * bnd_a * gain_a * F8::splat(0.5 / std::f64::consts::PI);
-            let err_b = eps * bnd_b * gain_b * F8::splat(0.5 / std::f64::consts::PI);
-            let a = b.want_a.select(b.mag * share_a * ka, F8::ZERO);
-            let bb = b.want_b.select(b.fres * share_b * kb, F8::ZERO);
+            let err_a = eps * bnd_a * gain_a * Wide::splat(0.5 / std::f64::consts::PI);
+            let err_b = eps * bnd_b * gain_b * Wide::splat(0.5 / std::f64::consts::PI);
+            let a = b.want_a.select(b.mag * share_a * ka, Wide::ZERO);
+            let bb = b.want_b.select(b.fres * share_b * kb, Wide::ZERO);
             let a_err = b
                 .want_a
-                .select(b.mag * ka * b.wa.mul_add(err_a, b.mix * err_l), F8::ZERO);
-            let b_err = b
-                .want_b
-                .select(b.fres * kb * b.wb.mul_add(err_b, b.fmix * err_l), F8::ZERO);
+                .select(b.mag * ka * b.wa.mul_add(err_a, b.mix * err_l), Wide::ZERO);
+            let b_err = b.want_b.select(
+                b.fres * kb * b.wb.mul_add(err_b, b.fmix * err_l),
+                Wide::ZERO,
+            );
             for c in 0..3 {
                 let ks = b.ks[c];
-                let s = ks.mul_add(a, (F8::ONE - ks) * bb);
-                let s_err = ks.mul_add(a_err, (F8::ONE - ks) * b_err);
-                spec[c] = b.lobe.select(s, F8::ZERO);
-                spec_err[c] = b.lobe.select(s_err, F8::ZERO);
+                let s = ks.mul_add(a, (Wide::ONE - ks) * bb);
+                let s_err = ks.mul_add(a_err, (Wide::ONE - ks) * b_err);
+                spec[c] = b.lobe.select(s, Wide::ZERO);
+                spec_err[c] = b.lobe.select(s_err, Wide::ZERO);
             }
         }
         // The Lambert lobe to `REL_TOL` of itself (the form factor keeps its
         // accuracy), the whole of U to `REL_TOL` in every channel.
-        let tol = F8::splat(REL_TOL);
+        let tol = Wide::splat(REL_TOL);
         let mut doubt = err_l.gt(tol * ff);
         let rad = light.radiance.to_array();
         for c in 0..3 {
@@ -599,9 +612,11 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
             doubt = doubt
                 .or(b.kd[c].mul_add(err_l, spec_err[c]).gt(tol * total))
                 .or(total.finite().invert());
-            let r = F8::splat(rad[c]);
-            out.diffuse[c] = fast.select((d * r).max(F8::ZERO), F8::ZERO).to_f32();
-            out.specular[c] = fast.select((spec[c] * r).max(F8::ZERO), F8::ZERO).to_f32();
+            let r = Wide::splat(rad[c]);
+            out.diffuse[c] = fast.select((d * r).max(Wide::ZERO), Wide::ZERO).to_f32();
+            out.specular[c] = fast
+                .select((spec[c] * r).max(Wide::ZERO), Wide::ZERO)
+                .to_f32();
         }
         hard = hard.or(fast.and(doubt));
     }
