@@ -118,7 +118,7 @@ fn main() -> anyhow::Result<()> {
     }
 
     println!(
-        "\norbit 1 deg per frame, 16 frames at 1 spp: rms frame-to-frame change of colour / U in penumbrae, followed by reprojection"
+        "\norbit 1 deg per frame, 16 frames at 1 spp: rms frame-to-frame change of colour / unshadowed colour (U without TAA) in penumbrae, followed by reprojection"
     );
     println!(
         "(penumbra: 0.05 < colour / U < 0.95 in the denoised frame; the undenoised run is measured on the same pixels)"
@@ -126,12 +126,21 @@ fn main() -> anyhow::Result<()> {
     let cams: Vec<Camera> = (0..16).map(|k| camera.orbit(k as f32)).collect();
     for mode in [Mode::Ratio, Mode::Stochastic] {
         for taa in [false, true] {
+            // The ratio is colour over the `unshadowed` colour of the same
+            // frame (same jitter and resolve): colour / U without TAA, and
+            // with it not confounded by the jitter's sub-pixel shading.
+            let mut unshadowed: Vec<Vec<Vec3>> = Vec::new();
+            run(
+                &cams,
+                settings(Mode::Unshadowed, 1, 1, false, taa),
+                &mut |f, _| unshadowed.push(f.color.clone()),
+            );
             let mut masks: Vec<Vec<bool>> = Vec::new();
             for denoise in [true, false] {
                 let mut prev: Option<(Vec<Option<f32>>, Vec<Vec3>)> = None;
                 let (mut sum, mut n, mut t) = (0.0f64, 0usize, 0usize);
                 run(&cams, settings(mode, 1, 1, denoise, taa), &mut |f, _| {
-                    let (r, pos) = ratios(f);
+                    let (r, pos) = ratios(f, &unshadowed[t]);
                     if denoise {
                         masks.push(
                             r.iter()
@@ -166,11 +175,12 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// colour / U luminance per surface pixel (None where U is dark), and positions.
-fn ratios(f: &Frame) -> (Vec<Option<f32>>, Vec<Vec3>) {
+/// colour / `unshadowed` colour luminance per surface pixel (None where it
+/// is dark), and positions.
+fn ratios(f: &Frame, unshadowed: &[Vec3]) -> (Vec<Option<f32>>, Vec<Vec3>) {
     let r = (0..f.pixel_count())
         .map(|k| {
-            let lu = luminance(f.u[k]);
+            let lu = luminance(unshadowed[k]);
             (f.gbuf[k].kind == PixelKind::Surface && lu > 1e-3).then(|| luminance(f.color[k]) / lu)
         })
         .collect();
