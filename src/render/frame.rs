@@ -315,8 +315,7 @@ impl Frame {
         let mut resolve = 0.0;
         if taa {
             let t = Instant::now();
-            let denoised = settings.denoise && settings.mode != Mode::Unshadowed;
-            self.resolve_colour(settings.mode, denoised, motion);
+            self.resolve_colour(Split::of(settings), motion);
             resolve = t.elapsed().as_secs_f64();
         }
         self.jitter = match offset {
@@ -355,6 +354,7 @@ impl Frame {
             Mode::SoftShadow => Some(Estimator::AreaVisibility),
             Mode::Unshadowed | Mode::Reference => None,
         };
+        let split = Split::of(settings);
         let first_sample = self.frame_index.wrapping_mul(settings.spp);
         let job = BandJob {
             world,
@@ -377,6 +377,21 @@ impl Frame {
                 for (k, g) in band.gbuf.iter().enumerate() {
                     band.guide.set(k, g, scratch.spec_share[k]);
                 }
+                // The resolve's factor, while the band is in cache (an
+                // undenoised frame's is its colour, filled below).
+                match split {
+                    Split::Modulated => {
+                        for (k, g) in band.gbuf.iter().enumerate() {
+                            band.resolve_in[k] = g.emission + band.u[k];
+                        }
+                    }
+                    Split::Additive => {
+                        for (k, g) in band.gbuf.iter().enumerate() {
+                            band.resolve_in[k] = g.emission;
+                        }
+                    }
+                    Split::Whole | Split::None => {}
+                }
                 if composite {
                     for k in 0..n {
                         band.color[k] = shade(
@@ -386,6 +401,9 @@ impl Frame {
                             band.un[k],
                             band.sn[k],
                         );
+                    }
+                    if split == Split::Whole {
+                        band.resolve_in.copy_from_slice(band.color);
                     }
                 } else {
                     if settings.mode == Mode::Stochastic {
@@ -427,16 +445,20 @@ impl Frame {
             .zip(self.un.chunks_mut(n))
             .zip(self.sn.chunks_mut(n))
             .zip(self.color.chunks_mut(n))
+            .zip(self.resolve_in.chunks_mut(n))
             .enumerate()
-            .map(|(b, ((((gbuf, u), un), sn), color))| BandMut {
-                y0: b as u32 * BAND_ROWS,
-                gbuf,
-                u,
-                un,
-                sn,
-                color,
-                guide: guides.next().expect("guides have the same bands"),
-            })
+            .map(
+                |(b, (((((gbuf, u), un), sn), color), resolve_in))| BandMut {
+                    y0: b as u32 * BAND_ROWS,
+                    gbuf,
+                    u,
+                    un,
+                    sn,
+                    color,
+                    resolve_in,
+                    guide: guides.next().expect("guides have the same bands"),
+                },
+            )
             .collect()
     }
 
@@ -476,32 +498,7 @@ impl Frame {
     /// resolved colour is taken instead; an undenoised frame is resolved
     /// whole. The frame's composite is computed as before: this stage only
     /// averages it, or its per-frame noise-free factor, over frames.
-    fn resolve_colour(&mut self, mode: Mode, denoised: bool, motion: CameraMotion) {
-        #[derive(Clone, Copy, PartialEq)]
-        enum Split {
-            /// colour = (emission + U) · ratio
-            Modulated,
-            /// colour = emission + dn(S_N)
-            Additive,
-            Whole,
-        }
-        let split = match (mode, denoised) {
-            (Mode::Ratio | Mode::SoftShadow, true) => Split::Modulated,
-            (Mode::Stochastic, true) => Split::Additive,
-            _ => Split::Whole,
-        };
-        self.resolve_in
-            .par_iter_mut()
-            .zip(&self.gbuf)
-            .zip(&self.u)
-            .zip(&self.color)
-            .for_each(|(((b, g), u), c)| {
-                *b = match split {
-                    Split::Modulated => g.emission + *u,
-                    Split::Additive => g.emission,
-                    Split::Whole => *c,
-                }
-            });
+    fn resolve_colour(&mut self, split: Split, motion: CameraMotion) {
         let guide = GuideBuffers {
             width: self.width,
             height: self.height,
@@ -520,23 +517,23 @@ impl Frame {
             &ResolveSettings::default(),
             &DenoiseSettings::default(),
         );
-        if split == Split::Whole {
+        if matches!(split, Split::Whole | Split::None) {
             return;
         }
         self.color
             .par_iter_mut()
-            .zip(&self.gbuf)
+            .zip(&self.guide.depth)
             .zip(&self.resolve_in)
             .zip(self.resolve.mixed())
             .zip(self.un.par_iter().zip(&self.sn))
-            .for_each(|((((c, g), b), &mixed), (un, sn))| {
+            .for_each(|((((c, &depth), b), &mixed), (un, sn))| {
                 if mixed {
                     return;
                 }
+                // Surfaces (depth > 0 in the guides) carry a ratio; lights
+                // and misses are their emission alone.
                 *c = match split {
-                    Split::Modulated if g.kind == PixelKind::Surface => {
-                        finite_or_zero(*b * ratio(*sn, *un))
-                    }
+                    Split::Modulated if depth > 0.0 => finite_or_zero(*b * ratio(*sn, *un)),
                     Split::Additive => finite_or_zero(*b + *sn),
                     _ => *b,
                 }
@@ -612,6 +609,35 @@ impl Frame {
             .par_iter_mut()
             .zip(&self.accum)
             .for_each(|(c, a)| *c = *a * inv);
+    }
+}
+
+/// How the temporal resolve sees a finished frame (see `resolve_colour`).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Split {
+    /// Denoised ratio / soft-shadow: colour = (emission + U) · dn(S_N) / dn(U_N);
+    /// the resolve averages emission + U.
+    Modulated,
+    /// Denoised stochastic: colour = emission + dn(S_N); the resolve
+    /// averages the emission.
+    Additive,
+    /// Undenoised or unshadowed: the resolve averages the colour.
+    Whole,
+    /// No resolve (TAA off, or `reference`).
+    None,
+}
+
+impl Split {
+    fn of(settings: &RenderSettings) -> Split {
+        if !settings.taa {
+            return Split::None;
+        }
+        match (settings.mode, settings.denoise) {
+            (Mode::Reference, _) => Split::None,
+            (Mode::Ratio | Mode::SoftShadow, true) => Split::Modulated,
+            (Mode::Stochastic, true) => Split::Additive,
+            _ => Split::Whole,
+        }
     }
 }
 
@@ -691,6 +717,8 @@ struct BandMut<'a> {
     un: &'a mut [Vec3],
     sn: &'a mut [Vec3],
     color: &'a mut [Vec3],
+    /// The resolve's noise-free factor (see `Split`).
+    resolve_in: &'a mut [Vec3],
     guide: GuideMut<'a>,
 }
 
@@ -698,12 +726,4 @@ struct BandMut<'a> {
 #[inline]
 pub fn finite_or_zero(v: Vec3) -> Vec3 {
     if v.is_finite() { v } else { Vec3::ZERO }
-}
-
-impl Frame {
-    /// Frames averaged per pixel by the denoiser's history and by the colour
-    /// resolve after the last frame (debug views and tests).
-    pub fn history_lengths(&self) -> (Vec<f32>, Vec<f32>) {
-        (self.denoiser.history_len(), self.resolve.history_len())
-    }
 }
