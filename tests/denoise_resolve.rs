@@ -114,3 +114,33 @@ fn the_first_16_jitters_start_at_the_centre_and_fill_a_4x4_grid() {
         "{mean}"
     );
 }
+
+/// A still camera's resolve never rejects its history, so a light edit must
+/// drop it: after the scene's lights go dark, the very next frame is black
+/// (no trace of the old light in `U`'s resolve or the denoiser's history).
+#[test]
+fn a_light_edit_under_a_still_camera_leaves_no_trace_of_the_old_light() {
+    let scene = load("shadow-plane.toml");
+    let (w, h) = (64u32, 36u32);
+    let device = Device::new().expect("Embree starts");
+    let pool = embree::thread_pool(2).expect("thread pool");
+    let settings = RenderSettings {
+        mode: Mode::Ratio,
+        taa: true,
+        ..RenderSettings::default()
+    };
+    let lit = World::build(&device, scene.clone()).expect("scene builds");
+    let mut frame = Frame::new(w, h);
+    for _ in 0..6 {
+        pool.install(|| frame.render(&lit, &scene.camera, &settings));
+    }
+    assert!(frame.color.iter().any(|c| c.max_element() > 0.0));
+    let mut dark_scene = scene.clone();
+    for light in &mut dark_scene.lights {
+        light.radiance = Vec3::ZERO;
+    }
+    let dark = World::build(&device, dark_scene).expect("scene builds");
+    pool.install(|| frame.render(&dark, &scene.camera, &settings));
+    let bright = frame.color.iter().filter(|c| **c != Vec3::ZERO).count();
+    assert_eq!(bright, 0, "pixels still lit after the lights went dark");
+}

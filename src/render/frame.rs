@@ -13,7 +13,7 @@ use crate::denoise::{
     luminance,
 };
 use crate::sampling::sequence::frame_jitter;
-use crate::scene::{Camera, CameraFrame};
+use crate::scene::{Camera, CameraFrame, Light};
 use crate::shading::brdf::alpha_from_roughness;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -203,8 +203,9 @@ pub struct Frame {
     accum: Vec<Vec3>,
     accum_spp: u32,
     prev_camera: Option<Camera>,
-    /// The previous frame's lights, printed (see `lights_fingerprint`).
-    prev_lights: String,
+    /// The previous frame's lights: a frame whose lights differ (a light
+    /// moved or was edited) drops every history at once.
+    prev_lights: Vec<Light>,
     /// Frames rendered so far; decorrelates samples across frames.
     pub frame_index: u32,
     /// Sub-pixel offset of the last frame's camera rays ((0.5, 0.5): none).
@@ -233,7 +234,7 @@ impl Frame {
             accum: Vec::new(),
             accum_spp: 0,
             prev_camera: None,
-            prev_lights: String::new(),
+            prev_lights: Vec::new(),
             frame_index: 0,
             jitter: Vec2::splat(0.5),
             jitter_index: 0,
@@ -272,11 +273,12 @@ impl Frame {
             self.accum.clear();
             self.accum_spp = 0;
         }
-        let lights = lights_fingerprint(world);
-        if self.prev_camera.is_some() && lights != self.prev_lights {
-            self.reset_history();
+        if world.scene.lights != self.prev_lights {
+            if self.prev_camera.is_some() {
+                self.reset_history();
+            }
+            self.prev_lights.clone_from(&world.scene.lights);
         }
-        self.prev_lights = lights;
         let clock = PhaseClock::default();
         let taa = settings.taa && settings.mode != Mode::Reference;
         let motion = if self.prev_camera == Some(*camera) {
@@ -639,13 +641,6 @@ impl Split {
             _ => Split::Whole,
         }
     }
-}
-
-/// The scene's lights as text: a frame whose lights differ from the last
-/// frame's (a light moved or was edited) drops every history at once. A few
-/// hundred bytes a frame; lights have no other identity to compare.
-fn lights_fingerprint(world: &World) -> String {
-    format!("{:?}", world.scene.lights)
 }
 
 /// A pixel's colour from its estimates.
