@@ -57,6 +57,11 @@ struct SceneArgs {
     /// Denoise U_N and S_N (ratio, stochastic, soft-shadow): on | off.
     #[arg(long, default_value = "on")]
     denoise: Switch,
+    /// Per-frame sub-pixel jitter of camera rays and a temporal resolve of
+    /// the frames (every mode but reference): on | off. Frame 0 is never
+    /// jittered, so a one-frame render is the same either way.
+    #[arg(long, default_value = "on")]
+    taa: Switch,
     /// Exposure in stops for PNG and the window.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
@@ -242,6 +247,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         spp: c.spp.max(1),
         seed: c.seed,
         denoise: c.denoise == Switch::On,
+        taa: c.taa == Switch::On,
         ..RenderSettings::default()
     };
     let mut frame = Frame::new(w, h);
@@ -317,6 +323,7 @@ fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {
         threads: a.common.threads,
         seed: a.common.seed,
         denoise: a.common.denoise == Switch::On,
+        taa: a.common.taa == Switch::On,
         exposure: a.common.exposure,
         overlay: a.overlay == Switch::On,
         frames: a.frames,

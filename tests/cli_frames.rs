@@ -110,7 +110,17 @@ fn orbit_turns_the_eye_about_the_target_by_deg_per_frame() {
     // Turning +90 degrees about +Y (right-hand rule) maps -Z to -X.
     let turned = dir.join("turned.toml");
     std::fs::write(&turned, scene_text([-6.0, 3.0, 0.0])).unwrap();
-    let args = ["--mode", "unshadowed", "--frames", "2", "--orbit", "90"];
+    // Without jitter: frame 1 is compared with an unjittered render.
+    let args = [
+        "--mode",
+        "unshadowed",
+        "--frames",
+        "2",
+        "--orbit",
+        "90",
+        "--taa",
+        "off",
+    ];
     render(&scene, &dir.join("o{frame}.png"), &args);
     render(&turned, &dir.join("turned.png"), &["--mode", "unshadowed"]);
     render(&scene, &dir.join("still.png"), &["--mode", "unshadowed"]);
@@ -123,6 +133,41 @@ fn orbit_turns_the_eye_about_the_target_by_deg_per_frame() {
     let moved = mean_abs_diff(&second, &first);
     assert!(same < 0.5, "frame 1 vs turned camera: {same}");
     assert!(moved > 10.0 * same.max(0.1), "frame 1 vs frame 0: {moved}");
+}
+
+#[test]
+fn taa_leaves_the_first_frame_alone_and_averages_jittered_frames_after_it() {
+    let dir = temp_dir("taa");
+    let scene = dir.join("s.toml");
+    std::fs::write(&scene, scene_text([0.0, 3.0, -6.0])).unwrap();
+    let shot = |name: &str, frames: &str, taa: &str| {
+        let out = dir.join(name);
+        let args = ["--mode", "unshadowed", "--frames", frames, "--taa", taa];
+        render(&scene, &out, &args);
+        pixels(&out)
+    };
+    // Frame 0 is the pixel centre: one frame is the same bytes either way.
+    assert_eq!(shot("on1.png", "1", "on"), shot("off1.png", "1", "off"));
+    // A still camera without TAA renders the same frame again; with TAA the
+    // jittered frames average, which changes edge pixels.
+    let off = shot("off4.png", "4", "off");
+    assert_eq!(off, shot("off1b.png", "1", "off"));
+    assert_ne!(shot("on4.png", "4", "on"), off);
+}
+
+#[test]
+fn an_unknown_taa_value_is_refused() {
+    let dir = temp_dir("taa-bad");
+    let run = penumbra()
+        .args(["render", "--width", "16", "--height", "9", "--taa", "maybe"])
+        .arg("--out")
+        .arg(dir.join("x.png"))
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("--taa"), "stderr: {err}");
+    assert!(!err.contains("panicked"), "stderr: {err}");
 }
 
 #[test]

@@ -123,7 +123,12 @@ fn motion_points_to_where_the_surface_was_in_the_previous_frame() {
     let device = Device::new().unwrap();
     let world = World::build(&device, scene).unwrap();
     let mut frame = Frame::new(160, 90);
-    let settings = RenderSettings::default();
+    // Unjittered rays: the check below casts the previous camera's ray
+    // through prev_pixel (with TAA it is the motion of the pixel centre).
+    let settings = RenderSettings {
+        taa: false,
+        ..RenderSettings::default()
+    };
     embree::thread_pool(1).unwrap().install(|| {
         frame.render(&world, &before, &settings);
         frame.render(&world, &after, &settings);

@@ -189,9 +189,11 @@ fn a_scripted_flight_through_room_shows_every_mode_and_the_motion() {
     assert!(d < 1e-5, "reference: window and render differ ({d})");
 
     // What was shown: the same image, plus the overlay in the top-left corner.
+    // Two frames since the mode switch dropped the history: the jitter
+    // restarted with it, so `render --frames 2` averages the same two.
     let shown = temp("flight-render-unshadowed.png");
     render(
-        &[&[room, "--mode", "unshadowed"], &size[..]].concat(),
+        &[&[room, "--mode", "unshadowed", "--frames", "2"], &size[..]].concat(),
         &shown,
     );
     let off = differing_pixels(&png(&shot("unshadowed")), &png(&shown));
@@ -215,8 +217,12 @@ fn frames_and_screenshot_close_the_window_and_write_what_render_writes() {
     let out = view(&args);
     let summary = String::from_utf8_lossy(&out.stderr);
     assert!(summary.contains("3 frames at 160x90"), "{summary}");
+    // The viewer jitters and resolves like `render` (TAA on in both).
     let rendered = temp("render.png");
-    render(&[&["--mode", "unshadowed"], &size[..]].concat(), &rendered);
+    render(
+        &[&["--mode", "unshadowed", "--frames", "3"], &size[..]].concat(),
+        &rendered,
+    );
     assert!(differing_pixels(&png(&shot), &png(&rendered)).is_empty());
     assert!(shot.with_extension("exr").is_file());
 }
@@ -236,9 +242,12 @@ fn a_resize_reallocates_the_frame_at_the_new_size() {
         ),
     )
     .unwrap();
+    // TAA off: the check is the size, compared with one unjittered frame.
     view(&[
         "--mode",
         "unshadowed",
+        "--taa",
+        "off",
         "--overlay",
         "off",
         "--width",
@@ -250,7 +259,16 @@ fn a_resize_reallocates_the_frame_at_the_new_size() {
     ]);
     let rendered = temp("resized-render.png");
     render(
-        &["--mode", "unshadowed", "--width", "96", "--height", "54"],
+        &[
+            "--mode",
+            "unshadowed",
+            "--taa",
+            "off",
+            "--width",
+            "96",
+            "--height",
+            "54",
+        ],
         &rendered,
     );
     let shown = png(&shot);

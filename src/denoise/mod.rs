@@ -18,12 +18,16 @@
 //!    averaged with its neighbours'), computed once per tap and applied to
 //!    both signals.
 //!
+//! After the composite, [`resolve`] averages the finished colour over
+//! jittered frames (TAA); it is a separate stage and never touches `U_N`/`S_N`.
+//!
 //! Depends only on `glam` and `rayon`; all buffers are allocated on the first
 //! frame (or a resize) and reused afterwards.
 
 mod history;
 mod lobe;
 mod noise;
+mod resolve;
 mod spatial;
 mod temporal;
 mod tiles;
@@ -32,6 +36,7 @@ use glam::{Vec2, Vec3};
 use std::time::Instant;
 
 pub use lobe::Lobe;
+pub use resolve::{CameraMotion, Resolve, ResolveSettings};
 pub use tiles::TILE;
 
 /// Per-pixel guides the renderer fills each frame (row-major, row 0 on top).
@@ -80,6 +85,12 @@ pub struct DenoiseSettings {
     /// whole `U` where that part is under 2 % of it) changed by more than
     /// this fraction (a light moved or was edited; see `temporal`).
     pub u_change: f32,
+    /// The per-pixel light test above on/off. Off under a still, jittered
+    /// camera: there `U` changes between frames only because the jitter
+    /// moved the ray inside the pixel (a highlight on a normal-mapped floor
+    /// varies by far more than 25 % within a pixel), and the renderer drops
+    /// the whole history when the scene's lights change.
+    pub light_test: bool,
     /// Most à-trous levels (3x3 taps at steps 1, 2, 4, ...: radius 2^n - 1).
     pub max_levels: u8,
     /// Every surface pixel gets at least this many levels (0 = fully adaptive;
@@ -116,6 +127,7 @@ impl Default for DenoiseSettings {
             min_normal_dot: 0.9,
             plane_tolerance: 0.02,
             u_change: 0.25,
+            light_test: true,
             max_levels: 4,
             min_levels: 0,
             noise_target: 0.02,

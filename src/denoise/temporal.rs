@@ -195,12 +195,7 @@ fn reproject(
         }
         let j = (ty * w + tx) as usize;
         let m = &prev.meta[j];
-        let ok = m.depth > 0.0
-            && (m.depth - depth).abs() <= s.depth_tolerance * depth
-            && normal.dot(m.pos - pos).abs() <= s.plane_tolerance * depth
-            && m.len > 0.0
-            && normal_close(decode_normal(m.normal), normal, s.min_normal_dot);
-        if ok {
+        if same_surface(m, depth, pos, normal, s) {
             acc.wsum += wt;
             acc.un += prev.un[j] * wt;
             acc.sn += prev.sn[j] * wt;
@@ -230,11 +225,13 @@ fn reproject(
         return None;
     }
     let inv = 1.0 / wsum;
-    if light_changed(
-        (lu, lu_diffuse),
-        (lu_prev * inv, lu_diffuse_prev * inv),
-        s.u_change,
-    ) {
+    if s.light_test
+        && light_changed(
+            (lu, lu_diffuse),
+            (lu_prev * inv, lu_diffuse_prev * inv),
+            s.u_change,
+        )
+    {
         return None;
     }
     Some(Reprojected {
@@ -244,6 +241,25 @@ fn reproject(
         m2: m2 * inv,
         len: len * inv,
     })
+}
+
+/// The disocclusion test of one reprojection tap: the history record `m`
+/// holds the same surface as the current pixel (depth, tangent plane and
+/// normal agree) and has something accumulated. Shared with the colour
+/// resolve, so both histories are dropped at the same places.
+#[inline]
+pub(super) fn same_surface(
+    m: &Meta,
+    depth: f32,
+    pos: Vec3,
+    normal: Vec3,
+    s: &DenoiseSettings,
+) -> bool {
+    m.depth > 0.0
+        && (m.depth - depth).abs() <= s.depth_tolerance * depth
+        && normal.dot(m.pos - pos).abs() <= s.plane_tolerance * depth
+        && m.len > 0.0
+        && normal_close(decode_normal(m.normal), normal, s.min_normal_dot)
 }
 
 /// Below this diffuse share of `U` (in either frame) the diffuse part is too
@@ -259,7 +275,7 @@ const MIN_DIFFUSE_SHARE: f32 = 0.02;
 /// part depends on the light alone, so it is the witness wherever it
 /// carries a fair share of `U`.
 #[inline]
-fn light_changed(now: (f32, f32), before: (f32, f32), tolerance: f32) -> bool {
+pub(super) fn light_changed(now: (f32, f32), before: (f32, f32), tolerance: f32) -> bool {
     let differ = |a: f32, b: f32| {
         let big = a.max(b);
         big > 1e-30 && (a - b).abs() > tolerance * big
@@ -275,7 +291,7 @@ fn light_changed(now: (f32, f32), before: (f32, f32), tolerance: f32) -> bool {
 
 /// floor as an integer without a libm call (baseline x86-64 has no roundss).
 #[inline]
-fn floor(v: f32) -> i64 {
+pub(super) fn floor(v: f32) -> i64 {
     let t = v as i64;
     if (t as f32) > v { t - 1 } else { t }
 }

@@ -8,8 +8,11 @@ use super::mode::Mode;
 use super::primary::{PACKET_H, PixelOffset, trace_rows};
 use super::shadow::{PacketWidth, ShadowBatch};
 use super::world::World;
-use crate::denoise::{DenoiseSettings, Denoiser, GuideBuffers, Lobe};
-use crate::scene::{Camera, CameraFrame};
+use crate::denoise::{
+    CameraMotion, DenoiseSettings, Denoiser, GuideBuffers, Lobe, Resolve, ResolveSettings,
+};
+use crate::sampling::sequence::frame_jitter;
+use crate::scene::{Camera, CameraFrame, Light};
 use crate::shading::brdf::alpha_from_roughness;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -30,6 +33,10 @@ pub struct RenderSettings {
     pub packet: PacketWidth,
     /// Temporal + spatial denoising of `U_N`, `S_N` (ratio, stochastic, soft-shadow).
     pub denoise: bool,
+    /// Per-frame sub-pixel jitter of the camera rays plus a temporal resolve
+    /// of the colour (every mode but `reference`, which jitters per sample).
+    /// Frame 0 is unjittered, so a one-frame render is the same either way.
+    pub taa: bool,
 }
 
 impl Default for RenderSettings {
@@ -40,6 +47,7 @@ impl Default for RenderSettings {
             seed: 0,
             packet: PacketWidth::Sixteen,
             denoise: true,
+            taa: true,
         }
     }
 }
@@ -141,6 +149,8 @@ pub struct PhaseTimes {
     pub composite: f64,
     /// Wall time of the denoiser (it runs after the band pass, over the frame).
     pub denoise: f64,
+    /// Wall time of the temporal resolve of the colour (after the composite).
+    pub resolve: f64,
     pub wall: f64,
     /// Shadow rays traced this frame.
     pub shadow_rays: u64,
@@ -178,12 +188,24 @@ pub struct Frame {
     /// The denoiser's guides, in the layout it reads (filled by the band pass).
     guide: Guides,
     denoiser: Denoiser,
+    resolve: Resolve,
+    /// What the resolve averages this frame (see `resolve_colour`).
+    resolve_in: Vec<Vec3>,
     /// `reference`: running sum of samples, and how many per pixel.
     accum: Vec<Vec3>,
     accum_spp: u32,
     prev_camera: Option<Camera>,
+    /// The previous frame's lights: a frame whose lights differ (a light
+    /// moved or was edited) drops every history at once.
+    prev_lights: Vec<Light>,
     /// Frames rendered so far; decorrelates samples across frames.
     pub frame_index: u32,
+    /// Sub-pixel offset of the last frame's camera rays ((0.5, 0.5): none).
+    pub jitter: Vec2,
+    /// Frames since the history was last dropped: the jitter's index, so
+    /// every history starts at the pixel centre and its first 2^m frames
+    /// are a (0,m,2)-net over the pixel.
+    jitter_index: u32,
 }
 
 impl Frame {
@@ -199,10 +221,15 @@ impl Frame {
             color: vec![Vec3::ZERO; n],
             guide: Guides::new(n),
             denoiser: Denoiser::new(width, height),
+            resolve: Resolve::new(width, height),
+            resolve_in: vec![Vec3::ZERO; n],
             accum: Vec::new(),
             accum_spp: 0,
             prev_camera: None,
+            prev_lights: Vec::new(),
             frame_index: 0,
+            jitter: Vec2::splat(0.5),
+            jitter_index: 0,
         }
     }
 
@@ -213,6 +240,8 @@ impl Frame {
     /// Forgets history: the next frame starts accumulation afresh.
     pub fn reset_history(&mut self) {
         self.denoiser.reset();
+        self.resolve.reset();
+        self.jitter_index = 0;
         self.accum.clear();
         self.accum_spp = 0;
         self.prev_camera = None;
@@ -236,26 +265,60 @@ impl Frame {
             self.accum.clear();
             self.accum_spp = 0;
         }
+        if world.scene.lights != self.prev_lights {
+            if self.prev_camera.is_some() {
+                self.reset_history();
+            }
+            self.prev_lights.clone_from(&world.scene.lights);
+        }
         let clock = PhaseClock::default();
+        let taa = settings.taa && settings.mode != Mode::Reference;
+        let motion = if self.prev_camera == Some(*camera) {
+            CameraMotion::Still
+        } else {
+            CameraMotion::Moved
+        };
+        let offset = if taa {
+            PixelOffset::Frame(frame_jitter(self.jitter_index))
+        } else {
+            PixelOffset::Centre
+        };
         let mut denoise = 0.0;
         match settings.mode {
             Mode::Reference => self.render_reference(world, &cam, settings, &clock),
-            Mode::Unshadowed => self.render_direct(world, &cam, &prev, settings, &clock, true),
+            Mode::Unshadowed => {
+                self.render_direct(world, (&cam, &prev), offset, settings, &clock, true)
+            }
             _ if !settings.denoise => {
-                self.render_direct(world, &cam, &prev, settings, &clock, true)
+                self.render_direct(world, (&cam, &prev), offset, settings, &clock, true)
             }
             _ => {
-                self.render_direct(world, &cam, &prev, settings, &clock, false);
+                self.render_direct(world, (&cam, &prev), offset, settings, &clock, false);
                 let t = Instant::now();
-                self.denoise(settings.mode);
+                // Under a still, jittered camera `U` changes between frames
+                // only through the jitter: the per-pixel light test would
+                // drop history all over glossy, normal-mapped surfaces (a
+                // light change resets the whole history above instead).
+                self.denoise(!taa || motion == CameraMotion::Moved);
                 denoise = t.elapsed().as_secs_f64();
                 let t = Instant::now();
                 self.composite(settings.mode);
                 PhaseClock::add(&clock.composite, t);
             }
         }
+        let mut resolve = 0.0;
+        if taa {
+            let t = Instant::now();
+            self.resolve_colour(Split::of(settings), motion);
+            resolve = t.elapsed().as_secs_f64();
+        }
+        self.jitter = match offset {
+            PixelOffset::Frame(o) => o,
+            _ => Vec2::splat(0.5),
+        };
         self.prev_camera = Some(*camera);
         self.frame_index = self.frame_index.wrapping_add(1);
+        self.jitter_index = self.jitter_index.wrapping_add(1);
         let secs = |a: &AtomicU64| a.load(Ordering::Relaxed) as f64 * 1e-9;
         PhaseTimes {
             primary: secs(&clock.primary),
@@ -263,6 +326,7 @@ impl Frame {
             shadow: secs(&clock.shadow),
             composite: secs(&clock.composite),
             denoise,
+            resolve,
             wall: start.elapsed().as_secs_f64(),
             shadow_rays: clock.shadow_rays.load(Ordering::Relaxed),
         }
@@ -273,8 +337,8 @@ impl Frame {
     fn render_direct(
         &mut self,
         world: &World,
-        cam: &CameraFrame,
-        prev: &CameraFrame,
+        (cam, prev): (&CameraFrame, &CameraFrame),
+        offset: PixelOffset,
         settings: &RenderSettings,
         clock: &PhaseClock,
         composite: bool,
@@ -284,12 +348,13 @@ impl Frame {
             Mode::SoftShadow => Some(Estimator::AreaVisibility),
             Mode::Unshadowed | Mode::Reference => None,
         };
+        let split = Split::of(settings);
         let first_sample = self.frame_index.wrapping_mul(settings.spp);
         let job = BandJob {
             world,
             cam,
             prev,
-            offset: PixelOffset::Centre,
+            offset,
             estimator,
             first_sample,
             spp: settings.spp,
@@ -302,6 +367,25 @@ impl Frame {
             .for_each_init(BandScratch::default, |scratch, mut band| {
                 let n = band.gbuf.len();
                 let t = job.run(band.y0, scratch, band.gbuf, band.u, band.un, band.sn);
+                // The guides serve the denoiser and the resolve alike.
+                for (k, g) in band.gbuf.iter().enumerate() {
+                    band.guide.set(k, g, scratch.spec_share[k]);
+                }
+                // The resolve's factor, while the band is in cache (an
+                // undenoised frame's is its colour, filled below).
+                match split {
+                    Split::Modulated => {
+                        for (k, g) in band.gbuf.iter().enumerate() {
+                            band.resolve_in[k] = g.emission + band.u[k];
+                        }
+                    }
+                    Split::Additive => {
+                        for (k, g) in band.gbuf.iter().enumerate() {
+                            band.resolve_in[k] = g.emission;
+                        }
+                    }
+                    Split::Whole | Split::None => {}
+                }
                 if composite {
                     for k in 0..n {
                         band.color[k] = shade(
@@ -312,10 +396,10 @@ impl Frame {
                             band.sn[k],
                         );
                     }
-                } else {
-                    for (k, g) in band.gbuf.iter().enumerate() {
-                        band.guide.set(k, g, scratch.spec_share[k]);
+                    if split == Split::Whole {
+                        band.resolve_in.copy_from_slice(band.color);
                     }
+                } else {
                     if settings.mode == Mode::Stochastic {
                         // The full Monte Carlo signal is filtered as `S_N` over the
                         // noise-free `U`: its whole noise, not only visibility's,
@@ -355,20 +439,24 @@ impl Frame {
             .zip(self.un.chunks_mut(n))
             .zip(self.sn.chunks_mut(n))
             .zip(self.color.chunks_mut(n))
+            .zip(self.resolve_in.chunks_mut(n))
             .enumerate()
-            .map(|(b, ((((gbuf, u), un), sn), color))| BandMut {
-                y0: b as u32 * BAND_ROWS,
-                gbuf,
-                u,
-                un,
-                sn,
-                color,
-                guide: guides.next().expect("guides have the same bands"),
-            })
+            .map(
+                |(b, (((((gbuf, u), un), sn), color), resolve_in))| BandMut {
+                    y0: b as u32 * BAND_ROWS,
+                    gbuf,
+                    u,
+                    un,
+                    sn,
+                    color,
+                    resolve_in,
+                    guide: guides.next().expect("guides have the same bands"),
+                },
+            )
             .collect()
     }
 
-    fn denoise(&mut self, _mode: Mode) {
+    fn denoise(&mut self, light_test: bool) {
         let guide = GuideBuffers {
             width: self.width,
             height: self.height,
@@ -384,8 +472,66 @@ impl Frame {
             &guide,
             &mut self.un,
             &mut self.sn,
+            &DenoiseSettings {
+                light_test,
+                ..DenoiseSettings::default()
+            },
+        );
+    }
+
+    /// The temporal resolve (see `denoise::resolve`): averages over the
+    /// jittered frames what no earlier stage has averaged. The denoiser's
+    /// temporal history already averages `U_N` and `S_N` over the same
+    /// jittered frames, so a denoised colour `U · dn(S_N) / dn(U_N)` is
+    /// resolved as `resolve(U) · dn(S_N) / dn(U_N)`, and denoised
+    /// `stochastic` as `resolve(emission) + dn(S_N)`: averaging the denoised
+    /// colour again would weight the early frames' samples up to 20x more
+    /// than the late ones' (a running mean of running means). Where the
+    /// jitter (or the motion) crossed a geometric edge, the resolved `U`
+    /// mixes surfaces that this frame's ratio does not describe, and the
+    /// resolved colour is taken instead; an undenoised frame is resolved
+    /// whole. The frame's composite is computed as before: this stage only
+    /// averages it, or its per-frame noise-free factor, over frames.
+    fn resolve_colour(&mut self, split: Split, motion: CameraMotion) {
+        let guide = GuideBuffers {
+            width: self.width,
+            height: self.height,
+            position: &self.guide.position,
+            normal: &self.guide.normal,
+            depth: &self.guide.depth,
+            prev_pixel: &self.guide.prev_pixel,
+            prev_valid: &self.guide.prev_valid,
+            u: &self.u,
+            lobe: &self.guide.lobe,
+        };
+        self.resolve.resolve(
+            &guide,
+            (&mut self.resolve_in, &mut self.color),
+            motion,
+            &ResolveSettings::default(),
             &DenoiseSettings::default(),
         );
+        if matches!(split, Split::Whole | Split::None) {
+            return;
+        }
+        self.color
+            .par_iter_mut()
+            .zip(&self.guide.depth)
+            .zip(&self.resolve_in)
+            .zip(self.resolve.mixed())
+            .zip(self.un.par_iter().zip(&self.sn))
+            .for_each(|((((c, &depth), b), &mixed), (un, sn))| {
+                if mixed {
+                    return;
+                }
+                // Surfaces (depth > 0 in the guides) carry a ratio; lights
+                // and misses are their emission alone.
+                *c = match split {
+                    Split::Modulated if depth > 0.0 => finite_or_zero(*b * ratio(*sn, *un)),
+                    Split::Additive => finite_or_zero(*b + *sn),
+                    _ => *b,
+                }
+            });
     }
 
     fn composite(&mut self, mode: Mode) {
@@ -460,6 +606,35 @@ impl Frame {
     }
 }
 
+/// How the temporal resolve sees a finished frame (see `resolve_colour`).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Split {
+    /// Denoised ratio / soft-shadow: colour = (emission + U) · dn(S_N) / dn(U_N);
+    /// the resolve averages emission + U.
+    Modulated,
+    /// Denoised stochastic: colour = emission + dn(S_N); the resolve
+    /// averages the emission.
+    Additive,
+    /// Undenoised or unshadowed: the resolve averages the colour.
+    Whole,
+    /// No resolve (TAA off, or `reference`).
+    None,
+}
+
+impl Split {
+    fn of(settings: &RenderSettings) -> Split {
+        if !settings.taa {
+            return Split::None;
+        }
+        match (settings.mode, settings.denoise) {
+            (Mode::Reference, _) => Split::None,
+            (Mode::Ratio | Mode::SoftShadow, true) => Split::Modulated,
+            (Mode::Stochastic, true) => Split::Additive,
+            _ => Split::Whole,
+        }
+    }
+}
+
 /// A pixel's colour from its estimates.
 #[inline]
 fn shade(mode: Mode, g: &GSample, u: Vec3, un: Vec3, sn: Vec3) -> Vec3 {
@@ -529,6 +704,8 @@ struct BandMut<'a> {
     un: &'a mut [Vec3],
     sn: &'a mut [Vec3],
     color: &'a mut [Vec3],
+    /// The resolve's noise-free factor (see `Split`).
+    resolve_in: &'a mut [Vec3],
     guide: GuideMut<'a>,
 }
 

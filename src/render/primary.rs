@@ -11,11 +11,13 @@ use glam::{Vec2, Vec3};
 pub const PACKET_W: u32 = 4;
 pub const PACKET_H: u32 = 4;
 
-/// Sub-pixel position of a camera ray: the pixel centre, or a per-sample
-/// jittered position for the reference's box filter.
+/// Sub-pixel position of a camera ray: the pixel centre, one offset for the
+/// whole frame (the temporal resolve's per-frame jitter), or a per-pixel,
+/// per-sample position for the reference's box filter.
 #[derive(Debug, Clone, Copy)]
 pub enum PixelOffset {
     Centre,
+    Frame(Vec2),
     Jitter { seed: u32, sample: u32 },
 }
 
@@ -24,6 +26,7 @@ impl PixelOffset {
     fn at(self, pixel: u32) -> Vec2 {
         match self {
             PixelOffset::Centre => Vec2::splat(0.5),
+            PixelOffset::Frame(o) => o,
             PixelOffset::Jitter { seed, sample } => crate::sampling::sequence::sample_2d(
                 pixel,
                 sample,
@@ -72,7 +75,7 @@ pub fn trace_rows(
                 }
                 let (i, r) = (px + lane as u32 % PACKET_W, py + lane as u32 / PACKET_W);
                 let dir = Vec3::new(rays.dx[lane], rays.dy[lane], rays.dz[lane]);
-                let sample = if hits.geom_id[lane] == INVALID_ID {
+                let mut sample = if hits.geom_id[lane] == INVALID_ID {
                     let mut s = GSample {
                         wo: -dir,
                         ..GSample::default()
@@ -92,6 +95,15 @@ pub fn trace_rows(
                         prev,
                     )
                 };
+                if let PixelOffset::Frame(o) = offset {
+                    // Motion vectors of the unjittered camera: the point seen
+                    // at (i + o) moved by prev_pixel - (i + o), and that motion
+                    // starts from the pixel centre, so a still camera
+                    // reprojects every pixel onto itself whatever the jitter.
+                    if sample.prev_valid {
+                        sample.prev_pixel -= o - Vec2::splat(0.5);
+                    }
+                }
                 out[(r * width + i) as usize] = sample;
             }
         }

@@ -279,6 +279,10 @@ fn bench_scene(
             denoise,
             spp,
             packet,
+            // Undenoised rows are single-frame estimates (their error is
+            // the median over frames), so their frames stand alone; the
+            // denoised rows run as shipped, jitter and resolve included.
+            taa: denoise && mode != Mode::Unshadowed,
             ..RenderSettings::default()
         };
         let m = bench.measure(&all, size, &settings, Some((&truth, &mask)));
@@ -317,6 +321,7 @@ fn bench_scene(
                 shadow: stage(|r| r.shadow),
                 denoise: median(&m.runs.iter().map(|r| r.denoise).collect::<Vec<_>>()) * 1e3,
                 composite: stage(|r| r.composite),
+                resolve: median(&m.runs.iter().map(|r| r.resolve).collect::<Vec<_>>()) * 1e3,
             },
             camera_rays: pixels,
             shadow_rays,

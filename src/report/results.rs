@@ -67,6 +67,9 @@ pub struct Stages {
     pub shadow: f64,
     pub denoise: f64,
     pub composite: f64,
+    /// Wall time of the temporal resolve (absent in runs saved before it).
+    #[serde(default)]
+    pub resolve: f64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -48,7 +48,7 @@ fn scene(out: &mut String, s: &SceneReport) {
     );
     let _ = writeln!(
         out,
-        "{:<14} {:>3} {:>8} {:>17} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8} {:>10} {:>10} {:>10}",
+        "{:<14} {:>3} {:>8} {:>17} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8} {:>10} {:>10} {:>10}",
         "config",
         "spp",
         "ms",
@@ -59,6 +59,7 @@ fn scene(out: &mut String, s: &SceneReport) {
         "shadow",
         "denoise",
         "compose",
+        "resolve",
         "Mrays/s",
         "/ceiling",
         "relMSE",
@@ -69,7 +70,7 @@ fn scene(out: &mut String, s: &SceneReport) {
         let st = &c.stages_ms;
         let _ = writeln!(
             out,
-            "{:<14} {:>3} {:>8.1} {:>17} {:>6.2} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>7.2} {:>8.2} {:>10.3e} {:>10.3e} {:>10}",
+            "{:<14} {:>3} {:>8.1} {:>17} {:>6.2} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>7.2} {:>8.2} {:>10.3e} {:>10.3e} {:>10}",
             c.label,
             c.spp,
             c.frame_ms.median,
@@ -80,6 +81,7 @@ fn scene(out: &mut String, s: &SceneReport) {
             st.shadow,
             st.denoise,
             st.composite,
+            st.resolve,
             c.mrays_per_s,
             c.over_ceiling,
             c.rel_mse,

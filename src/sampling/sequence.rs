@@ -145,6 +145,32 @@ pub fn sample_1d(pixel_index: u32, sample_index: u32, dimension: u32, seed: u32)
     to_unit(owen_reversed(i, sx).reverse_bits())
 }
 
+/// Sub-pixel position of frame `frame`'s camera rays, the same for every
+/// pixel (the per-frame jitter of a temporal resolve): the first two Sobol
+/// dimensions, unscrambled, so every aligned block of 2^m frames is a
+/// (0,m,2)-net: 16 frames put one point in each cell of a 4x4 grid (and of
+/// the 16x1, 8x2, 2x8 and 1x16 grids) of the pixel. Each point is moved by
+/// 1/32 to the middle of its cell of the 16-frame grid: net points sit on
+/// cell corners, so 16 of them average to 15/32 instead of 1/2, and one of
+/// them is the pixel corner itself, where rays graze the edges of
+/// axis-aligned geometry (measured: a 4-frame resolve of room 8x worse over
+/// the whole frame). Frame 0 is the pixel centre instead of (17/32, 17/32),
+/// so a one-frame render is the unjittered one.
+#[inline]
+pub fn frame_jitter(frame: u32) -> Vec2 {
+    if frame == 0 {
+        return Vec2::splat(0.5);
+    }
+    // The digital shift by 1/2 (xor of the top bit) keeps the nets and puts
+    // frame 0's cell at the centre, next to the point frame 0 uses.
+    const HALF: u32 = 1 << 31;
+    let mid = |bits: u32| (to_unit(bits ^ HALF) + 1.0 / 32.0).fract();
+    Vec2::new(
+        mid(frame.reverse_bits()),
+        mid(sobol_dim1_reversed(frame).reverse_bits()),
+    )
+}
+
 /// PCG32 (O'Neill 2014, XSH-RR output): a small fast RNG for anything that
 /// needs plain independent random numbers (tests, jitter, tie-breaking).
 #[derive(Debug, Clone)]

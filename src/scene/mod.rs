@@ -56,7 +56,7 @@ pub struct Mesh {
 /// A planar convex polygonal area light with 3 to 8 vertices. The vertex
 /// order is such that the emitting side is the right-hand-rule normal
 /// (for a `quad`: center-u-v, center+u-v, center+u+v, center-u+v).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Light {
     pub vertices: Vec<Vec3>,
     /// Emitted radiance, linear RGB, each channel >= 0.

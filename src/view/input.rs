@@ -29,6 +29,8 @@ pub struct FrameInput {
 pub enum Action {
     Mode(Mode),
     ToggleDenoise,
+    /// Per-frame jitter and the temporal resolve (TAA) on / off.
+    ToggleTaa,
     FewerSamples,
     MoreSamples,
     Faster,
@@ -46,7 +48,8 @@ pub const HELP: &[&str] = &[
     "SCROLL + - SPEED    1-5  MODE",
     "1 RATIO 2 STOCHASTIC 3 SOFT-SHADOW",
     "4 UNSHADOWED 5 REFERENCE",
-    "N (SHIFT+D) DENOISER  [ ] SPP",
+    "N (SHIFT+D) DENOISER  T TAA",
+    "[ ] SPP",
     "P SCREENSHOT  R RESET  O OVERLAY",
     "H HELP  ESC QUIT",
 ];
@@ -115,6 +118,7 @@ fn action_of(key: Key, shift: bool) -> Option<Action> {
         Key::Key5 => Action::Mode(Mode::Reference),
         Key::N => Action::ToggleDenoise,
         Key::D if shift => Action::ToggleDenoise,
+        Key::T => Action::ToggleTaa,
         Key::LeftBracket => Action::FewerSamples,
         Key::RightBracket => Action::MoreSamples,
         Key::Equal | Key::NumPadPlus => Action::Faster,
@@ -225,6 +229,11 @@ mod tests {
         assert_eq!(shift_d.travel(), (0.0, 0.0, 0.0));
         assert_eq!(shift_d.actions(), [Action::ToggleDenoise]);
         assert_eq!(pressing(&[Key::N]).actions(), [Action::ToggleDenoise]);
+    }
+
+    #[test]
+    fn t_toggles_jitter_and_resolve() {
+        assert_eq!(pressing(&[Key::T]).actions(), [Action::ToggleTaa]);
     }
 
     #[test]

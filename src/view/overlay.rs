@@ -35,6 +35,8 @@ pub struct Readout {
     pub mode: Mode,
     /// `None` when the mode does not use the denoiser.
     pub denoise: Option<bool>,
+    /// Jitter + temporal resolve; `None` for `reference` (its own jitter).
+    pub taa: Option<bool>,
     /// Samples per pixel per frame.
     pub spp: u32,
     /// `reference`: samples per pixel accumulated so far.
@@ -58,6 +60,14 @@ impl Readout {
         }
     }
 
+    fn taa_word(&self) -> &'static str {
+        match self.taa {
+            Some(true) => "  TAA ON",
+            Some(false) => "  TAA OFF",
+            None => "",
+        }
+    }
+
     fn spp_words(&self) -> String {
         match self.accumulated {
             Some(total) => format!("{total} SPP (+{}/FRAME)", self.spp),
@@ -78,9 +88,10 @@ impl Readout {
         let t = &self.timing;
         let mut lines = vec![
             format!(
-                "{}  {}  {}  {}X{}",
+                "{}  {}{}  {}  {}X{}",
                 self.mode.name().to_uppercase(),
                 self.denoise_word(),
+                self.taa_word(),
                 self.spp_words(),
                 self.width,
                 self.height
@@ -181,6 +192,7 @@ mod tests {
         Readout {
             mode: Mode::Ratio,
             denoise: Some(true),
+            taa: Some(true),
             spp: 2,
             accumulated: None,
             width: 320,
@@ -199,9 +211,9 @@ mod tests {
     }
 
     #[test]
-    fn the_overlay_names_mode_denoiser_spp_size_times_fps_and_rays() {
+    fn the_overlay_names_mode_denoiser_taa_spp_size_times_fps_and_rays() {
         let lines = readout().lines();
-        assert_eq!(lines[0], "RATIO  DENOISE ON  2 SPP  320X180");
+        assert_eq!(lines[0], "RATIO  DENOISE ON  TAA ON  2 SPP  320X180");
         assert_eq!(lines[1], "MS RENDER 25.0 DENOISE 4.0 PRESENT 1.0");
         assert_eq!(lines[2], "25.0 FPS  80.0 MRAYS/S  SPEED 2.50  H HELP");
         let title = readout().title();
@@ -216,6 +228,7 @@ mod tests {
         let r = Readout {
             mode: Mode::Reference,
             denoise: None,
+            taa: None,
             accumulated: Some(64),
             ..readout()
         };

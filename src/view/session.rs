@@ -84,6 +84,12 @@ impl Session {
                 // The history was not kept up while off: start it afresh.
                 self.reset();
             }
+            Action::ToggleTaa => {
+                self.settings.taa = !self.settings.taa;
+                // A resolve history built from unjittered frames (or the
+                // reverse) is not the box filter: start it afresh.
+                self.reset();
+            }
             Action::FewerSamples => self.settings.spp = (self.settings.spp / 2).max(1),
             Action::MoreSamples => self.settings.spp = (self.settings.spp * 2).min(MAX_SPP),
             Action::Faster => self.flyer.speed = (self.flyer.speed * SPEED_STEP).min(1e4),
@@ -198,6 +204,7 @@ impl Session {
         Readout {
             mode,
             denoise: uses_denoiser.then_some(self.settings.denoise),
+            taa: (mode != Mode::Reference).then_some(self.settings.taa),
             spp: self.settings.spp,
             accumulated: (mode == Mode::Reference).then_some(self.accumulated),
             width,
@@ -284,13 +291,16 @@ mod tests {
     }
 
     #[test]
-    fn toggles_flip_denoiser_help_and_overlay_and_quit_stops() {
+    fn toggles_flip_denoiser_taa_help_and_overlay_and_quit_stops() {
         let mut s = session();
         assert!(s.settings.denoise && s.overlay && !s.help);
         s.apply(Action::ToggleDenoise);
         s.apply(Action::Help);
         s.apply(Action::Overlay);
         assert!(!s.settings.denoise && !s.overlay && s.help);
+        let taa = s.settings.taa;
+        s.apply(Action::ToggleTaa);
+        assert_eq!(s.settings.taa, !taa);
         assert!(s.apply(Action::Mode(Mode::SoftShadow)));
         assert_eq!(s.settings.mode, Mode::SoftShadow);
         assert!(!s.apply(Action::Quit));

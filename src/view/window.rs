@@ -24,6 +24,8 @@ pub struct ViewOptions {
     pub threads: usize,
     pub seed: u32,
     pub denoise: bool,
+    /// Per-frame jitter and temporal resolve (`RenderSettings::taa`).
+    pub taa: bool,
     pub exposure: f32,
     /// Draw the overlay (key `O` toggles it).
     pub overlay: bool,
@@ -75,6 +77,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         spp: opts.spp.max(1),
         seed: opts.seed,
         denoise: opts.denoise,
+        taa: opts.taa,
         ..RenderSettings::default()
     };
     let mut session = Session::new(settings, &camera, w, h, opts.exposure, opts.overlay);

@@ -1,0 +1,385 @@
+//! Temporal resolve (TAA): a stage after the composite, separate from the
+//! denoiser. It averages one signal over jittered frames: the colour, or
+//! the noise-free factor of the colour that no earlier stage has averaged
+//! (the renderer decides; see `render::frame`).
+//!
+//! Every frame's camera rays go through one sub-pixel offset of a
+//! low-discrepancy sequence (`sampling::sequence::frame_jitter`); this stage
+//! averages the frames. For a still camera the blend is 1/n with n the
+//! history length, so n frames are the exact mean of n jittered frames: the
+//! box filter over the pixel that `reference` computes. When the camera moves,
+//! the history is reprojected with the unjittered motion vectors (bilinear,
+//! each tap checked with the denoiser's own disocclusion test), dropped where
+//! the light changed (the denoiser's `U` test), clamped to the range of the
+//! current frame's 3x3 neighbourhood (no ghost trails) and capped short
+//! (bilinear resampling every frame would blur a long history).
+//!
+//! The composite itself is untouched: per frame it is still
+//! `U · dn(S_N) / dn(U_N)` with one set of weights; this stage only averages
+//! finished frames.
+
+use super::history::{Meta, encode_normal};
+use super::temporal::{floor, light_changed, same_surface};
+use super::{DenoiseSettings, GuideBuffers, luminance};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Knobs of the resolve. `Default` gives the tuned values.
+#[derive(Clone, Debug)]
+pub struct ResolveSettings {
+    /// History cap while the camera is still: up to this many jittered
+    /// frames are averaged with equal weights.
+    pub max_history_still: u16,
+    /// History cap while the camera moves: the blend factor never drops below
+    /// 1/this, so resampling blur and what the clamp lets through fade fast.
+    pub max_history_moving: u16,
+    /// Clamp the reprojected colour to the current 3x3 neighbourhood's range
+    /// when the camera moves.
+    pub clamp: bool,
+}
+
+impl Default for ResolveSettings {
+    fn default() -> Self {
+        ResolveSettings {
+            max_history_still: 64,
+            max_history_moving: 8,
+            clamp: true,
+        }
+    }
+}
+
+/// One frame of the resolved signals and what the next frame needs to
+/// validate them.
+struct ColorHistory {
+    /// The noise-free factor of the colour (see `resolve`).
+    factor: Vec<Vec3>,
+    color: Vec<Vec3>,
+    meta: Vec<Meta>,
+    /// The history holds more than one surface (the jitter crossed an edge).
+    mixed: Vec<bool>,
+}
+
+impl ColorHistory {
+    fn new(n: usize) -> ColorHistory {
+        ColorHistory {
+            factor: vec![Vec3::ZERO; n],
+            color: vec![Vec3::ZERO; n],
+            meta: vec![Meta::default(); n],
+            mixed: vec![false; n],
+        }
+    }
+}
+
+/// One resolved pixel: both signals, how many frames, and whether they
+/// came from more than one surface.
+#[derive(Clone, Copy)]
+struct Resolved {
+    factor: Vec3,
+    color: Vec3,
+    len: f32,
+    mixed: bool,
+}
+
+/// Resolve state: the previous resolved frame and the one being written.
+pub struct Resolve {
+    width: u32,
+    height: u32,
+    prev: ColorHistory,
+    cur: ColorHistory,
+}
+
+/// How the camera moved since the previous frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CameraMotion {
+    /// Same camera (and lights): every pixel's history is its own.
+    Still,
+    /// Reproject along the motion vectors.
+    Moved,
+}
+
+impl Resolve {
+    pub fn new(width: u32, height: u32) -> Resolve {
+        let n = width as usize * height as usize;
+        Resolve {
+            width,
+            height,
+            prev: ColorHistory::new(n),
+            cur: ColorHistory::new(n),
+        }
+    }
+
+    /// Forgets the history: the next frame stands alone.
+    pub fn reset(&mut self) {
+        for h in [&mut self.prev, &mut self.cur] {
+            h.meta.fill(Meta::default());
+            h.mixed.fill(false);
+        }
+    }
+
+    /// Frames averaged per pixel after the last call (0 before any).
+    pub fn history_len(&self) -> Vec<f32> {
+        self.prev.meta.iter().map(|m| m.len).collect()
+    }
+
+    /// Per pixel after the last call: whether its history holds more than
+    /// one surface (the jitter or the motion crossed a geometric edge), so
+    /// the resolved factor does not belong to this frame's surface alone.
+    pub fn mixed(&self) -> &[bool] {
+        &self.prev.mixed
+    }
+
+    /// Replaces `factor` and `color` by their temporal resolves, with the
+    /// same weights. `factor` is the noise-free per-frame part of the colour
+    /// (the renderer multiplies it by what its denoiser already averaged),
+    /// `color` the whole frame, for the pixels whose history is
+    /// [`mixed`](Self::mixed). `surface` holds the disocclusion and
+    /// light-change tolerances of the denoiser's history, so both histories
+    /// are dropped at the same places. A size change drops the history.
+    pub fn resolve(
+        &mut self,
+        guide: &GuideBuffers,
+        (factor, color): (&mut [Vec3], &mut [Vec3]),
+        motion: CameraMotion,
+        settings: &ResolveSettings,
+        surface: &DenoiseSettings,
+    ) {
+        let (w, h) = (guide.width as usize, guide.height as usize);
+        let n = w * h;
+        assert!(
+            color.len() == n
+                && factor.len() == n
+                && guide.depth.len() == n
+                && guide.position.len() == n
+                && guide.normal.len() == n
+                && guide.prev_pixel.len() == n
+                && guide.prev_valid.len() == n
+                && guide.u.len() == n,
+            "resolve: every buffer must hold width * height pixels"
+        );
+        if guide.width != self.width || guide.height != self.height {
+            *self = Resolve::new(guide.width, guide.height);
+        }
+        if n == 0 {
+            return;
+        }
+        let (now_f, now_c): (&[Vec3], &[Vec3]) = (factor, color);
+        let prev = &self.prev;
+        let cap = match motion {
+            CameraMotion::Still => settings.max_history_still,
+            CameraMotion::Moved => settings.max_history_moving,
+        }
+        .max(1) as f32;
+        let cur = &mut self.cur;
+        (
+            cur.factor.par_chunks_mut(w),
+            cur.color.par_chunks_mut(w),
+            cur.meta.par_chunks_mut(w),
+            cur.mixed.par_chunks_mut(w),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(y, (out_f, out_c, meta, mixed))| {
+                for x in 0..w {
+                    let i = y * w + x;
+                    let (f, c) = (sanitize(now_f[i]), sanitize(now_c[i]));
+                    let here = Pixel::of(guide, i);
+                    let hist = match motion {
+                        CameraMotion::Still => still_history(prev, i, &here, surface),
+                        CameraMotion::Moved if here.meta.depth > 0.0 && guide.prev_valid[i] => {
+                            reprojected(guide, prev, x, y, &here, surface).map(|mut r| {
+                                if settings.clamp {
+                                    r.factor = clamp_to_neighbourhood(r.factor, now_f, w, h, x, y);
+                                    r.color = clamp_to_neighbourhood(r.color, now_c, w, h, x, y);
+                                }
+                                r
+                            })
+                        }
+                        CameraMotion::Moved => None,
+                    };
+                    let r = match hist {
+                        Some(r) => {
+                            let len = (r.len + 1.0).min(cap);
+                            let a = 1.0 / len;
+                            Resolved {
+                                factor: r.factor + (f - r.factor) * a,
+                                color: r.color + (c - r.color) * a,
+                                len,
+                                mixed: r.mixed,
+                            }
+                        }
+                        None => Resolved {
+                            factor: f,
+                            color: c,
+                            len: 1.0,
+                            mixed: false,
+                        },
+                    };
+                    out_f[x] = r.factor;
+                    out_c[x] = r.color;
+                    mixed[x] = r.mixed;
+                    meta[x] = Meta {
+                        len: r.len,
+                        ..here.meta
+                    };
+                }
+            });
+        factor.copy_from_slice(&self.cur.factor);
+        color.copy_from_slice(&self.cur.color);
+        std::mem::swap(&mut self.prev, &mut self.cur);
+    }
+}
+
+/// What the resolve knows of the current pixel, in the history's record.
+struct Pixel {
+    meta: Meta,
+    normal: Vec3,
+}
+
+impl Pixel {
+    #[inline]
+    fn of(guide: &GuideBuffers, i: usize) -> Pixel {
+        let d = guide.depth[i];
+        let surface = d > 0.0 && d.is_finite();
+        let lu = luminance(guide.u[i]);
+        let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
+        let share = guide.lobe.get(i).map_or(0.0, |l| l.share);
+        let normal = guide.normal[i];
+        Pixel {
+            meta: Meta {
+                pos: guide.position[i],
+                normal: encode_normal(normal),
+                depth: if surface { d } else { 0.0 },
+                lu,
+                lu_diffuse: lu * (1.0 - share),
+                ..Meta::default()
+            },
+            normal,
+        }
+    }
+}
+
+/// A still camera's history: the pixel's own. Nothing is rejected: the
+/// static scene cannot have disoccluded anything, a different surface than
+/// last frame is the jitter sampling another part of the pixel (what the
+/// average is for; the history is then marked mixed), and `U` differs
+/// between frames for the same reason; the renderer drops the history when
+/// the lights change.
+#[inline]
+fn still_history(
+    prev: &ColorHistory,
+    i: usize,
+    here: &Pixel,
+    s: &DenoiseSettings,
+) -> Option<Resolved> {
+    let m = &prev.meta[i];
+    if m.len <= 0.0 {
+        return None;
+    }
+    let d = here.meta.depth;
+    let same = if d > 0.0 {
+        same_surface(m, d, here.meta.pos, here.normal, s)
+    } else {
+        m.depth <= 0.0
+    };
+    Some(Resolved {
+        factor: prev.factor[i],
+        color: prev.color[i],
+        len: m.len,
+        mixed: prev.mixed[i] || !same,
+    })
+}
+
+/// Bilinear fetch of the previous resolve at the unjittered motion vector's
+/// end, each tap validated like the denoiser's; `None` where disoccluded or
+/// the light changed.
+#[inline]
+fn reprojected(
+    guide: &GuideBuffers,
+    prev: &ColorHistory,
+    x: usize,
+    y: usize,
+    here: &Pixel,
+    s: &DenoiseSettings,
+) -> Option<Resolved> {
+    let (w, h) = (guide.width as i64, guide.height as i64);
+    let p = guide.prev_pixel[y * guide.width as usize + x] - 0.5;
+    if !p.is_finite() || p.x.abs() > 1e9 || p.y.abs() > 1e9 {
+        return None;
+    }
+    let (x0, y0) = (floor(p.x), floor(p.y));
+    let (fx, fy) = (p.x - x0 as f32, p.y - y0 as f32);
+    let (d, pos) = (here.meta.depth, here.meta.pos);
+    let mut acc = Resolved {
+        factor: Vec3::ZERO,
+        color: Vec3::ZERO,
+        len: 0.0,
+        mixed: false,
+    };
+    let (mut wsum, mut lu, mut lu_diffuse) = (0.0f32, 0.0f32, 0.0f32);
+    for (tx, ty, wt) in [
+        (x0, y0, (1.0 - fx) * (1.0 - fy)),
+        (x0 + 1, y0, fx * (1.0 - fy)),
+        (x0, y0 + 1, (1.0 - fx) * fy),
+        (x0 + 1, y0 + 1, fx * fy),
+    ] {
+        if wt <= 0.0 || tx < 0 || ty < 0 || tx >= w || ty >= h {
+            continue;
+        }
+        let j = (ty * w + tx) as usize;
+        let m = &prev.meta[j];
+        if same_surface(m, d, pos, here.normal, s) {
+            wsum += wt;
+            acc.factor += prev.factor[j] * wt;
+            acc.color += prev.color[j] * wt;
+            acc.len += m.len * wt;
+            acc.mixed |= prev.mixed[j];
+            lu += m.lu * wt;
+            lu_diffuse += m.lu_diffuse * wt;
+        }
+    }
+    if wsum < 1e-3 {
+        return None;
+    }
+    let inv = 1.0 / wsum;
+    if s.light_test
+        && light_changed(
+            (here.meta.lu, here.meta.lu_diffuse),
+            (lu * inv, lu_diffuse * inv),
+            s.u_change,
+        )
+    {
+        return None;
+    }
+    Some(Resolved {
+        factor: acc.factor * inv,
+        color: acc.color * inv,
+        len: acc.len * inv,
+        mixed: acc.mixed,
+    })
+}
+
+/// Clamps `c` per channel to the range of the current frame's colours in
+/// the 3x3 neighbourhood of (x, y): history the current frame cannot
+/// explain (a surface that was not there, light that left) is cut back.
+#[inline]
+fn clamp_to_neighbourhood(c: Vec3, now: &[Vec3], w: usize, h: usize, x: usize, y: usize) -> Vec3 {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for ny in y.saturating_sub(1)..(y + 2).min(h) {
+        for nx in x.saturating_sub(1)..(x + 2).min(w) {
+            let v = sanitize(now[ny * w + nx]);
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    c.clamp(lo, hi)
+}
+
+/// Non-finite or negative colour would stay in the history for many frames.
+#[inline]
+fn sanitize(c: Vec3) -> Vec3 {
+    if c.is_finite() {
+        c.max(Vec3::ZERO)
+    } else {
+        Vec3::ZERO
+    }
+}
