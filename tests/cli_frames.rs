@@ -155,34 +155,30 @@ fn taa_leaves_the_first_frame_alone_and_averages_jittered_frames_after_it() {
     assert_ne!(shot("on4.png", "4", "on"), off);
 }
 
-#[test]
-fn an_unknown_taa_value_is_refused() {
-    let dir = temp_dir("taa-bad");
+/// Renders a tiny frame with `flag value`; the run must fail with a message
+/// naming the flag, and without a panic.
+fn assert_refused(dir: &str, flag: &str, value: &str) {
+    let dir = temp_dir(dir);
     let run = penumbra()
-        .args(["render", "--width", "16", "--height", "9", "--taa", "maybe"])
+        .args(["render", "--width", "16", "--height", "9", flag, value])
         .arg("--out")
         .arg(dir.join("x.png"))
         .output()
         .unwrap();
     assert!(!run.status.success());
     let err = String::from_utf8_lossy(&run.stderr);
-    assert!(err.contains("--taa"), "stderr: {err}");
+    assert!(err.contains(flag), "stderr: {err}");
     assert!(!err.contains("panicked"), "stderr: {err}");
 }
 
 #[test]
+fn an_unknown_taa_value_is_refused() {
+    assert_refused("taa-bad", "--taa", "maybe");
+}
+
+#[test]
 fn a_non_finite_orbit_is_refused() {
-    let dir = temp_dir("nan");
-    let run = penumbra()
-        .args(["render", "--width", "16", "--height", "9", "--orbit", "NaN"])
-        .arg("--out")
-        .arg(dir.join("x.png"))
-        .output()
-        .unwrap();
-    assert!(!run.status.success());
-    let err = String::from_utf8_lossy(&run.stderr);
-    assert!(err.contains("--orbit"), "stderr: {err}");
-    assert!(!err.contains("panicked"), "stderr: {err}");
+    assert_refused("nan", "--orbit", "NaN");
 }
 
 #[test]

@@ -19,7 +19,7 @@
 //! finished frames.
 
 use super::history::{Meta, encode_normal};
-use super::temporal::{floor, light_changed, same_surface};
+use super::temporal::{floor, light_changed, same_surface, sanitize};
 use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -372,14 +372,4 @@ fn clamp_to_neighbourhood(c: Vec3, now: &[Vec3], w: usize, h: usize, x: usize, y
         }
     }
     c.clamp(lo, hi)
-}
-
-/// Non-finite or negative colour would stay in the history for many frames.
-#[inline]
-fn sanitize(c: Vec3) -> Vec3 {
-    if c.is_finite() {
-        c.max(Vec3::ZERO)
-    } else {
-        Vec3::ZERO
-    }
 }

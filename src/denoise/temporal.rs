@@ -34,10 +34,10 @@ struct Acc {
     lu_diffuse: f32,
 }
 
-/// Non-finite or negative input would poison the history for `max_history`
-/// frames; treat it as no light.
+/// Non-finite or negative input would poison the history (the denoiser's
+/// or the resolve's) for many frames; treat it as no light.
 #[inline]
-fn sanitize(c: Vec3) -> Vec3 {
+pub(crate) fn sanitize(c: Vec3) -> Vec3 {
     if c.is_finite() {
         c.max(Vec3::ZERO)
     } else {

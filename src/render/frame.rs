@@ -457,17 +457,7 @@ impl Frame {
     }
 
     fn denoise(&mut self, light_test: bool) {
-        let guide = GuideBuffers {
-            width: self.width,
-            height: self.height,
-            position: &self.guide.position,
-            normal: &self.guide.normal,
-            depth: &self.guide.depth,
-            prev_pixel: &self.guide.prev_pixel,
-            prev_valid: &self.guide.prev_valid,
-            u: &self.u,
-            lobe: &self.guide.lobe,
-        };
+        let guide = self.guide.buffers(self.width, self.height, &self.u);
         self.denoiser.denoise(
             &guide,
             &mut self.un,
@@ -493,17 +483,7 @@ impl Frame {
     /// whole. The frame's composite is computed as before: this stage only
     /// averages it, or its per-frame noise-free factor, over frames.
     fn resolve_colour(&mut self, split: Split, motion: CameraMotion) {
-        let guide = GuideBuffers {
-            width: self.width,
-            height: self.height,
-            position: &self.guide.position,
-            normal: &self.guide.normal,
-            depth: &self.guide.depth,
-            prev_pixel: &self.guide.prev_pixel,
-            prev_valid: &self.guide.prev_valid,
-            u: &self.u,
-            lobe: &self.guide.lobe,
-        };
+        let guide = self.guide.buffers(self.width, self.height, &self.u);
         self.resolve.resolve(
             &guide,
             (&mut self.resolve_in, &mut self.color),
@@ -665,6 +645,21 @@ impl Guides {
             prev_pixel: vec![Vec2::ZERO; n],
             prev_valid: vec![false; n],
             lobe: vec![Lobe::default(); n],
+        }
+    }
+
+    /// What the denoiser and the resolve read: these guides and the frame's `U`.
+    fn buffers<'a>(&'a self, width: u32, height: u32, u: &'a [Vec3]) -> GuideBuffers<'a> {
+        GuideBuffers {
+            width,
+            height,
+            position: &self.position,
+            normal: &self.normal,
+            depth: &self.depth,
+            prev_pixel: &self.prev_pixel,
+            prev_valid: &self.prev_valid,
+            u,
+            lobe: &self.lobe,
         }
     }
 }
