@@ -5,7 +5,7 @@
 //! Every operation is a fixed loop over the lanes, inlined always, which
 //! LLVM turns into vector instructions (one AVX2 instruction with the
 //! x86-64-v3 build of `.cargo/config.toml`, two SSE2 ones otherwise): no
-//! intrinsics, no `unsafe`. Four lanes, not eight: eight `f64` (two
+//! intrinsics, all safe Rust. Four lanes, not eight: eight `f64` (two
 //! registers per value) ran 1.26x slower per evaluation (register spills;
 //! criterion `unshadowed_batch/quad`, README). Comparisons give a mask `Mask` of all-ones /
 //! all-zeros bit patterns, and selects are bitwise, so lanes never branch.
