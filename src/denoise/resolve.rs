@@ -19,7 +19,7 @@
 //! finished frames.
 
 use super::history::{Meta, encode_normal};
-use super::temporal::{floor, light_changed, same_surface, sanitize};
+use super::temporal::{bilinear_footprint, light_changed, same_surface, sanitize};
 use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -301,13 +301,7 @@ fn reprojected(
     here: &Pixel,
     s: &DenoiseSettings,
 ) -> Option<Resolved> {
-    let (w, h) = (guide.width as i64, guide.height as i64);
-    let p = guide.prev_pixel[y * guide.width as usize + x] - 0.5;
-    if !p.is_finite() || p.x.abs() > 1e9 || p.y.abs() > 1e9 {
-        return None;
-    }
-    let (x0, y0) = (floor(p.x), floor(p.y));
-    let (fx, fy) = (p.x - x0 as f32, p.y - y0 as f32);
+    let taps = bilinear_footprint(guide, x, y)?;
     let (d, pos) = (here.meta.depth, here.meta.pos);
     let mut acc = Resolved {
         factor: Vec3::ZERO,
@@ -316,16 +310,7 @@ fn reprojected(
         mixed: false,
     };
     let (mut wsum, mut lu, mut lu_diffuse) = (0.0f32, 0.0f32, 0.0f32);
-    for (tx, ty, wt) in [
-        (x0, y0, (1.0 - fx) * (1.0 - fy)),
-        (x0 + 1, y0, fx * (1.0 - fy)),
-        (x0, y0 + 1, (1.0 - fx) * fy),
-        (x0 + 1, y0 + 1, fx * fy),
-    ] {
-        if wt <= 0.0 || tx < 0 || ty < 0 || tx >= w || ty >= h {
-            continue;
-        }
-        let j = (ty * w + tx) as usize;
+    for (j, wt) in taps.into_iter().flatten() {
         let m = &prev.meta[j];
         if same_surface(m, d, pos, here.normal, s) {
             wsum += wt;

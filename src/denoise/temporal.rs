@@ -175,25 +175,8 @@ fn reproject(
     (lu, lu_diffuse): (f32, f32),
     s: &DenoiseSettings,
 ) -> Option<Reprojected> {
-    let w = guide.width as i64;
-    let h = guide.height as i64;
-    let p = guide.prev_pixel[y * guide.width as usize + x] - 0.5;
-    if !p.is_finite() {
-        return None;
-    }
-    // Far off-screen: no history (and no overflow in the casts below).
-    if p.x.abs() > 1e9 || p.y.abs() > 1e9 {
-        return None;
-    }
-    let (x0, y0) = (floor(p.x), floor(p.y));
-    let (fx, fy) = (p.x - x0 as f32, p.y - y0 as f32);
     let mut acc = Acc::default();
-    let tap = |acc: &mut Acc, tx: i64, ty: i64, wt: f32| {
-        // Zero-weight taps are skipped, so a whole-pixel shift reads one tap.
-        if wt <= 0.0 || tx < 0 || ty < 0 || tx >= w || ty >= h {
-            return;
-        }
-        let j = (ty * w + tx) as usize;
+    for (j, wt) in bilinear_footprint(guide, x, y)?.into_iter().flatten() {
         let m = &prev.meta[j];
         if same_surface(m, depth, pos, normal, s) {
             acc.wsum += wt;
@@ -205,11 +188,7 @@ fn reproject(
             acc.lu += m.lu * wt;
             acc.lu_diffuse += m.lu_diffuse * wt;
         }
-    };
-    tap(&mut acc, x0, y0, (1.0 - fx) * (1.0 - fy));
-    tap(&mut acc, x0 + 1, y0, fx * (1.0 - fy));
-    tap(&mut acc, x0, y0 + 1, (1.0 - fx) * fy);
-    tap(&mut acc, x0 + 1, y0 + 1, fx * fy);
+    }
     let Acc {
         wsum,
         un,
@@ -241,6 +220,36 @@ fn reproject(
         m2: m2 * inv,
         len: len * inv,
     })
+}
+
+/// The 2x2 bilinear footprint, in the previous frame, of the end of pixel
+/// (x, y)'s motion vector: each tap's (index, weight), in a fixed order,
+/// `None` for a tap off-screen or of zero weight (so a whole-pixel shift
+/// reads one tap). `None` overall when the end is not finite or far
+/// off-screen (no history, and no overflow in the casts). Shared by the
+/// denoiser's history and the colour resolve.
+#[inline]
+pub(super) fn bilinear_footprint(
+    guide: &GuideBuffers,
+    x: usize,
+    y: usize,
+) -> Option<[Option<(usize, f32)>; 4]> {
+    let (w, h) = (guide.width as i64, guide.height as i64);
+    let p = guide.prev_pixel[y * guide.width as usize + x] - 0.5;
+    if !p.is_finite() || p.x.abs() > 1e9 || p.y.abs() > 1e9 {
+        return None;
+    }
+    let (x0, y0) = (floor(p.x), floor(p.y));
+    let (fx, fy) = (p.x - x0 as f32, p.y - y0 as f32);
+    let tap = |tx: i64, ty: i64, wt: f32| {
+        (wt > 0.0 && tx >= 0 && ty >= 0 && tx < w && ty < h).then(|| ((ty * w + tx) as usize, wt))
+    };
+    Some([
+        tap(x0, y0, (1.0 - fx) * (1.0 - fy)),
+        tap(x0 + 1, y0, fx * (1.0 - fy)),
+        tap(x0, y0 + 1, (1.0 - fx) * fy),
+        tap(x0 + 1, y0 + 1, fx * fy),
+    ])
 }
 
 /// The disocclusion test of one reprojection tap: the history record `m`

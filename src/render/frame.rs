@@ -367,9 +367,12 @@ impl Frame {
             .for_each_init(BandScratch::default, |scratch, mut band| {
                 let n = band.gbuf.len();
                 let t = job.run(band.y0, scratch, band.gbuf, band.u, band.un, band.sn);
-                // The guides serve the denoiser and the resolve alike.
-                for (k, g) in band.gbuf.iter().enumerate() {
-                    band.guide.set(k, g, scratch.spec_share[k]);
+                // The guides serve the denoiser and the resolve alike; a frame
+                // with neither (composited here, TAA off) needs none.
+                if !composite || split != Split::None {
+                    for (k, g) in band.gbuf.iter().enumerate() {
+                        band.guide.set(k, g, scratch.spec_share[k]);
+                    }
                 }
                 // The resolve's factor, while the band is in cache (an
                 // undenoised frame's is its colour, filled below).

@@ -69,7 +69,10 @@ pub struct BatchLight {
 
 impl BatchLight {
     pub fn new(light: &Light) -> BatchLight {
-        let mut n = light.vertices.len().min(MAX_LIGHT_VERTICES);
+        // The scalar light decides which lights emit at all (n = 0: dark
+        // or degenerate); the batch follows it.
+        let scalar = ShadingLight::new(light);
+        let n = scalar.vertex_count();
         let mut v = [[0.0; 3]; MAX_LIGHT_VERTICES];
         let mut e = [[0.0 as E; 3]; MAX_LIGHT_VERTICES];
         for i in 0..n {
@@ -78,9 +81,6 @@ impl BatchLight {
             let d = b.as_dvec3() - a.as_dvec3();
             e[i] = [d.x as E, d.y as E, d.z as E];
         }
-        if n < 3 || light.radiance == Vec3::ZERO {
-            n = 0;
-        }
         BatchLight {
             n,
             v,
@@ -88,7 +88,7 @@ impl BatchLight {
             normal: light.normal.to_array(),
             radiance: light.radiance,
             two_sided: light.two_sided,
-            scalar: ShadingLight::new(light),
+            scalar,
         }
     }
 }

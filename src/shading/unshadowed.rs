@@ -67,6 +67,12 @@ impl ShadingLight {
             two_sided: light.two_sided,
         }
     }
+
+    /// Vertices U integrates: 0 for a light that cannot emit (dark, or
+    /// fewer than 3 vertices).
+    pub(crate) fn vertex_count(&self) -> usize {
+        self.n
+    }
 }
 
 /// U for one light: ∫ f L cos over the light polygon. Finite and >= 0 always.
