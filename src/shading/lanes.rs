@@ -160,9 +160,7 @@ impl Mask {
     /// `a` where the mask is set, `b` elsewhere.
     #[inline(always)]
     pub fn select(self, a: Wide, b: Wide) -> Wide {
-        Wide(each(|l| {
-            E::from_bits((a.0[l].to_bits() & self.0[l]) | (b.0[l].to_bits() & !self.0[l]))
-        }))
+        Wide(each(|l| if self.0[l] != 0 { a.0[l] } else { b.0[l] }))
     }
 
     #[inline(always)]

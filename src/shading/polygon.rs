@@ -124,7 +124,7 @@ pub fn clip_upper_into(src: &[DVec3], out: &mut Polygon) {
 /// form. Max relative error 2.1e-9 (checked by a test against `acos`). The
 /// function is analytic on [0, 1] (it is theta / sin(theta), even in theta),
 /// so a polynomial is accurate right up to x = 1, where `acos / sqrt` is 0/0.
-const THETA_SIN_POLY: [f64; 11] = [
+pub(crate) const THETA_SIN_POLY: [f64; 11] = [
     1.2091995761561447,
     -0.2636001657036012,
     0.06973319987759215,
