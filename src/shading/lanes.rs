@@ -98,6 +98,20 @@ impl Wide {
         self.map(E::sqrt)
     }
 
+    /// `1 / sqrt(x)` to 5e-6 relative, for `x` in [1e-300, 1e300]: an
+    /// integer first guess (3.5 % off) and two Newton steps, multiplies and
+    /// adds only. For code that needs ~1e-3, not `f64` (the correction),
+    /// where a square root and a division per use kept the divider busy.
+    #[inline(always)]
+    pub fn rsqrt_approx(self) -> Wide {
+        let guess = Wide(each(|l| {
+            E::from_bits(0x5FE6_EB50_C7B5_37A9u64.wrapping_sub(self.0[l].to_bits() >> 1))
+        }));
+        let half = self * Wide::splat(-0.5);
+        let step = |y: Wide| y * (y * y).mul_add(half, Wide::splat(1.5));
+        step(step(guess))
+    }
+
     /// Lane-wise minimum (`minps` semantics: written as a compare-select so
     /// no NaN handling is added).
     #[inline(always)]
@@ -265,6 +279,20 @@ pub fn scale3(a: &Wide3, s: Wide) -> Wide3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn approximate_reciprocal_square_root_is_within_its_bound() {
+        let mut worst: f64 = 0.0;
+        for k in 0..=6000 {
+            let x = 10f64.powf(-300.0 + 0.1 * k as f64);
+            for f in [1.0, 1.37, 2.0, 3.1, 7.9] {
+                let x = x * f;
+                let got = Wide::splat(x).rsqrt_approx().0[0];
+                worst = worst.max((got * x.sqrt() - 1.0).abs());
+            }
+        }
+        assert!(worst < 5e-6, "{worst}");
+    }
 
     #[test]
     fn select_min_max_and_finite_act_per_lane() {

@@ -271,14 +271,15 @@ fn exact_lanes(k: &CorrectionLanes, w: &Wide3) -> (Wide, Wide) {
     let q = (k.a2 * h[2]).mul_add(h[2], hxy);
     let c = w[2].max(Wide::splat(MIN_COS));
     let wxy = w[0].mul_add(w[0], w[1] * w[1]);
-    let t = c.mul_add(c, k.a2 * wxy).sqrt();
+    // Square roots as `x / sqrt(x)` with the approximate `1 / sqrt`: the
+    // factor needs ~1e-3, and the divider was the bottleneck here.
+    let t2 = c.mul_add(c, k.a2 * wxy);
+    let t = t2 * t2.rsqrt_approx();
     let num = k.a2 * l2 * l2 * w[2];
     let den = (k.k * q * q * c.mul_add(k.lo2, t)).max(Wide::splat(1e-30));
-    let len = l2.sqrt();
-    let inv = Wide::ONE / (den * len);
-    let a = num * len * inv;
+    let a = num / den;
     let wo_w = k.wox.mul_add(w[0], k.woz * w[2]);
-    let cos_oh = (wo_w + Wide::ONE) * den * inv;
+    let cos_oh = (wo_w + Wide::ONE) * l2.rsqrt_approx();
     let m = Wide::ONE - cos_oh.clamp(0.0, 1.0);
     let m2 = m * m;
     (a, a * m2 * m2 * m)
@@ -316,7 +317,7 @@ pub fn lobe_factors_lanes<const N: usize>(
     for v in u {
         c = add3(&c, v);
     }
-    let c = scale3(&c, Wide::ONE / dot(&c, &c).max(Wide::splat(1e-30)).sqrt());
+    let c = scale3(&c, dot(&c, &c).max(Wide::splat(1e-30)).rsqrt_approx());
     let cu: [Wide; N] = std::array::from_fn(|i| dot(&c, &u[i]));
     let mut sums = [Wide::ZERO; 4];
     for i in 0..N {
@@ -326,7 +327,7 @@ pub fn lobe_factors_lanes<const N: usize>(
         let den = Wide::ONE + cu[i] + dots[i] + cu[j];
         let omega = Wide::splat(2.0) * atan2_pos_lanes(num, den);
         let m = add3(&add3(&c, a), b);
-        let w = scale3(&m, Wide::ONE / dot(&m, &m).max(Wide::splat(1e-30)).sqrt());
+        let w = scale3(&m, dot(&m, &m).max(Wide::splat(1e-30)).rsqrt_approx());
         let wt = w[2].gt(Wide::ZERO).select(omega, Wide::ZERO);
         let (ea, eb) = exact_lanes(k, &w);
         sums[0] = wt.mul_add(ea, sums[0]);
