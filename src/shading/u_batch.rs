@@ -59,9 +59,9 @@ const SIDE_TOL: f32 = 1e-5;
 pub struct BatchLight {
     /// Vertex count; 0 for a light that cannot emit (as `ShadingLight`).
     n: usize,
-    v: [[f32; 3]; MAX_LIGHT_VERTICES],
+    v: [[E; 3]; MAX_LIGHT_VERTICES],
     e: [[E; 3]; MAX_LIGHT_VERTICES],
-    normal: [f32; 3],
+    normal: [E; 3],
     radiance: Vec3,
     two_sided: bool,
     scalar: ShadingLight,
@@ -73,11 +73,11 @@ impl BatchLight {
         // or degenerate); the batch follows it.
         let scalar = ShadingLight::new(light);
         let n = scalar.vertex_count();
-        let mut v = [[0.0; 3]; MAX_LIGHT_VERTICES];
+        let mut v = [[0.0 as E; 3]; MAX_LIGHT_VERTICES];
         let mut e = [[0.0 as E; 3]; MAX_LIGHT_VERTICES];
         for i in 0..n {
             let (a, b) = (light.vertices[i], light.vertices[(i + 1) % n]);
-            v[i] = a.to_array();
+            v[i] = a.as_dvec3().to_array().map(|x| x as E);
             let d = b.as_dvec3() - a.as_dvec3();
             e[i] = [d.x as E, d.y as E, d.z as E];
         }
@@ -85,7 +85,7 @@ impl BatchLight {
             n,
             v,
             e,
-            normal: light.normal.to_array(),
+            normal: light.normal.as_dvec3().to_array().map(|x| x as E),
             radiance: light.radiance,
             two_sided: light.two_sided,
             scalar,
