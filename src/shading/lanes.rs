@@ -8,7 +8,9 @@
 //! intrinsics, all safe Rust. Four lanes, not eight: eight `f64` (two
 //! registers per value) ran 1.26x slower per evaluation (register spills;
 //! criterion `unshadowed_batch/quad`, README). Comparisons give a mask `Mask` of all-ones /
-//! all-zeros bit patterns, and selects are bitwise, so lanes never branch.
+//! all-zeros bit patterns, and a select picks per lane from that mask (one
+//! blend instruction; written as a bitwise and/or it took three), so lanes
+//! never branch.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

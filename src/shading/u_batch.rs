@@ -399,7 +399,7 @@ fn sum_terms<const K: usize>(
 
 /// The Lambert contour sum of the local polygon (`q` vertices, `e` edges;
 /// no vertex below the horizon in the lanes that count), its error bound,
-/// the inverse vertex lengths, the unit vertices and the edge cosines (the
+/// the vertex lengths, the unit vertices and the edge cosines (the
 /// last two feed the shape correction).
 #[allow(clippy::type_complexity)]
 #[inline(always)]
@@ -494,16 +494,32 @@ fn clipped_sum<const N: usize>(
         let (a, b, ev) = (&q[i], &q[j], &e[i]);
         let (ina, inb) = (a[2].ge(zero), b[2].ge(zero));
         let (az, bz) = (a[2].abs(), b[2].abs());
-        let x = [a[0].mul_add(bz, b[0] * az), a[1].mul_add(bz, b[1] * az), zero];
-        let ix = Wide::ONE / x[0].mul_add(x[0], x[1] * x[1]).max(Wide::splat(E::MIN_POSITIVE)).sqrt();
+        let x = [
+            a[0].mul_add(bz, b[0] * az),
+            a[1].mul_add(bz, b[1] * az),
+            zero,
+        ];
+        let ix = Wide::ONE
+            / x[0]
+                .mul_add(x[0], x[1] * x[1])
+                .max(Wide::splat(E::MIN_POSITIVE))
+                .sqrt();
         let leaving = ina.and_not(inb);
         let arriving = inb.and_not(ina);
         // The share of the edge's cross product kept (one case per lane).
         let k = ina.select(inb.select(Wide::ONE, az), inb.select(bz, zero));
         let i0 = ina.select(inv_v[i], ix);
         let i1 = inb.select(inv_v[j], ix);
-        let start = [ina.select(a[0], x[0]), ina.select(a[1], x[1]), ina.select(a[2], zero)];
-        let end = [inb.select(b[0], x[0]), inb.select(b[1], x[1]), inb.select(b[2], zero)];
+        let start = [
+            ina.select(a[0], x[0]),
+            ina.select(a[1], x[1]),
+            ina.select(a[2], zero),
+        ];
+        let end = [
+            inb.select(b[0], x[0]),
+            inb.select(b[1], x[1]),
+            inb.select(b[2], zero),
+        ];
         let w = i0 * i1;
         dots[i] = (dot(&start, &end) * w).clamp(-1.0, 1.0);
         let kw = k * w;
