@@ -5,9 +5,10 @@
 //! LTC shape correction (`ltc_correction::lobe_factors_lanes`) all run
 //! across pixels.
 //!
-//! Per batch, what does not depend on the light is set up once, lane by
-//! lane in scalar code: the shading frame, the LTC cell (a table lookup is
-//! loads) and the correction's constants. Per light, the vertices are taken
+//! Per batch, what does not depend on the light is set up once, across the
+//! lanes in `f32` (`PixelBatch::new`, bit for bit the scalar path's values):
+//! the shading frame, the LTC cell (the blend of four table cells stays a
+//! per-lane gather, transposed into lanes) and the correction's constants. Per light, the vertices are taken
 //! into each lane's local frame; each contour sum is a loop over the edges
 //! with running sums.
 //!
