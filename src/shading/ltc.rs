@@ -24,7 +24,7 @@
 //! there and renormalise); and `err`, the fit's error on polygon integrals
 //! (diagnostic only, see `ltc_fit`).
 
-use glam::{DMat3, Vec4};
+use glam::{DMat3, IVec4, Mat4, Vec4};
 use std::sync::OnceLock;
 
 /// Values per cell, in this order.
@@ -255,11 +255,7 @@ impl PackedLtc {
         let cells = table
             .cells
             .iter()
-            .map(|c| {
-                let mut a = [0.0f32; 16];
-                a[..FIELDS].copy_from_slice(&c.to_array());
-                PackedCell([0, 4, 8, 12].map(|k| Vec4::from_slice(&a[k..k + 4])))
-            })
+            .map(|c| PackedCell(packed_cell(c)))
             .collect();
         PackedLtc {
             size: table.size,
@@ -270,23 +266,133 @@ impl PackedLtc {
     /// `LtcTable::lookup`, on the packed cells.
     #[inline]
     pub fn lookup(&self, roughness: f32, cos_view: f32) -> LtcCell {
+        let mut r = [0.0f32; 16];
+        for (k, v) in self.lookup_packed(roughness, cos_view).iter().enumerate() {
+            v.write_to_slice(&mut r[4 * k..4 * k + 4]);
+        }
+        let mut out = [0.0f32; FIELDS];
+        out.copy_from_slice(&r[..FIELDS]);
+        LtcCell::from_array(out)
+    }
+
+    /// `lookup`'s fields as they are blended: `LtcCell::to_array` order,
+    /// four per `Vec4`, the 16th 0. What a batch transposes into lanes
+    /// (`CellLanes`) without unpacking a cell.
+    #[inline]
+    pub fn lookup_packed(&self, roughness: f32, cos_view: f32) -> [Vec4; 4] {
         let (i0, j0, fx, fy) = cell_coords(self.size, roughness, cos_view);
-        let k = j0 * self.size + i0;
+        self.blend(j0 * self.size + i0, fx, fy)
+    }
+}
+
+impl PackedLtc {
+    /// `lookup_packed` of four pixels (lane `l` = pixel `l`), the cell
+    /// coordinates computed across the lanes: the same cells bit for bit
+    /// for finite inputs (a test checks it; a NaN reads cell (0, 0) here).
+    #[inline]
+    pub fn lookup_lanes(&self, roughness: Vec4, cos_view: Vec4) -> [[Vec4; 4]; 4] {
+        let n = Vec4::splat((self.size - 1) as f32);
+        let x = roughness.clamp(Vec4::ZERO, Vec4::ONE) * n;
+        let y = (Vec4::ONE - cos_view.clamp(Vec4::ZERO, Vec4::ONE)).sqrt() * n;
+        // x, y in [0, size - 1]: truncation as `cell_coords`' `as usize`.
+        let last = IVec4::splat(self.size as i32 - 2);
+        let (i0, j0) = (x.as_ivec4().min(last), y.as_ivec4().min(last));
+        let (fx, fy) = (x - i0.as_vec4(), y - j0.as_vec4());
+        let mut out = [[Vec4::ZERO; 4]; 4];
+        for (l, out) in out.iter_mut().enumerate() {
+            let k = j0[l] as usize * self.size + i0[l] as usize;
+            *out = self.blend(k, fx[l], fy[l]);
+        }
+        out
+    }
+
+    /// The bilinear blend of cells `k`, `k + 1` and the two above them.
+    #[inline(always)]
+    fn blend(&self, k: usize, fx: f32, fy: f32) -> [Vec4; 4] {
         let (a, b) = (&self.cells[k].0, &self.cells[k + 1].0);
         let (c, d) = (
             &self.cells[k + self.size].0,
             &self.cells[k + self.size + 1].0,
         );
         let (fx, fy) = (Vec4::splat(fx), Vec4::splat(fy));
-        let mut r = [0.0f32; 16];
-        for k in 0..4 {
+        let mut out = [Vec4::ZERO; 4];
+        for (k, out) in out.iter_mut().enumerate() {
             let top = a[k] + (b[k] - a[k]) * fx;
             let bot = c[k] + (d[k] - c[k]) * fx;
-            (top + (bot - top) * fy).write_to_slice(&mut r[4 * k..4 * k + 4]);
+            *out = top + (bot - top) * fy;
         }
-        let mut out = [0.0f32; FIELDS];
-        out.copy_from_slice(&r[..FIELDS]);
-        LtcCell::from_array(out)
+        out
+    }
+}
+
+/// A cell as `PackedLtc::lookup_packed` gives it.
+pub fn packed_cell(c: &LtcCell) -> [Vec4; 4] {
+    let mut a = [0.0f32; 16];
+    a[..FIELDS].copy_from_slice(&c.to_array());
+    [0, 4, 8, 12].map(|k| Vec4::from_slice(&a[k..k + 4]))
+}
+
+/// The cells of four pixels (one per lane, as `lanes::Wide`), field by
+/// field: one `Vec4` per field, in `LtcCell::to_array` order. What the
+/// batched U's setup computes with across pixels.
+#[derive(Clone, Copy, Debug)]
+pub struct CellLanes([Vec4; 16]);
+
+impl CellLanes {
+    /// `cell` in every lane.
+    pub fn splat(cell: &LtcCell) -> CellLanes {
+        let mut f = [Vec4::ZERO; 16];
+        for (f, v) in f.iter_mut().zip(cell.to_array()) {
+            *f = Vec4::splat(v);
+        }
+        CellLanes(f)
+    }
+
+    /// Lane `l` from `cells[l]` (as `lookup_packed` gives them): four 4x4
+    /// transposes.
+    #[inline]
+    pub fn from_packed(cells: &[[Vec4; 4]; 4]) -> CellLanes {
+        let mut f = [Vec4::ZERO; 16];
+        for k in 0..4 {
+            let t = Mat4::from_cols(cells[0][k], cells[1][k], cells[2][k], cells[3][k]).transpose();
+            f[4 * k..4 * k + 4].copy_from_slice(&t.to_cols_array_2d().map(Vec4::from_array));
+        }
+        CellLanes(f)
+    }
+
+    /// `M^-1` of lobe A (m00, m02, m20, m22) across the lanes.
+    #[inline]
+    pub fn ma(&self) -> [Vec4; 4] {
+        [self.0[0], self.0[1], self.0[2], self.0[3]]
+    }
+    #[inline]
+    pub fn mag(&self) -> Vec4 {
+        self.0[4]
+    }
+    #[inline]
+    pub fn hmass(&self) -> Vec4 {
+        self.0[5]
+    }
+    #[inline]
+    pub fn mix(&self) -> Vec4 {
+        self.0[6]
+    }
+    /// `M^-1` of lobe B (f00, f02, f20, f22) across the lanes.
+    #[inline]
+    pub fn mb(&self) -> [Vec4; 4] {
+        [self.0[7], self.0[8], self.0[9], self.0[10]]
+    }
+    #[inline]
+    pub fn fres(&self) -> Vec4 {
+        self.0[11]
+    }
+    #[inline]
+    pub fn fhmass(&self) -> Vec4 {
+        self.0[12]
+    }
+    #[inline]
+    pub fn fmix(&self) -> Vec4 {
+        self.0[13]
     }
 }
 
@@ -308,6 +414,41 @@ mod tests {
         for c in &t.cells {
             assert!(c.to_array().iter().all(|v| v.is_finite()));
             assert!(c.mag > 0.0 && c.hmass > 0.0 && c.fres >= 0.0 && c.fhmass > 0.0);
+        }
+    }
+
+    #[test]
+    fn cell_lanes_hold_each_lanes_cell_field_by_field() {
+        let p = packed_table();
+        let at = [(0.1, 0.9), (0.5, 0.2), (0.93, 0.6), (0.3, 0.01)];
+        let cells = at.map(|(r, c)| p.lookup(r, c));
+        let lanes = CellLanes::from_packed(&at.map(|(r, c)| p.lookup_packed(r, c)));
+        for (l, c) in cells.iter().enumerate() {
+            let ma = lanes.ma().map(|v| v[l]);
+            let mb = lanes.mb().map(|v| v[l]);
+            assert_eq!(ma, [c.m00, c.m02, c.m20, c.m22]);
+            assert_eq!(mb, [c.f00, c.f02, c.f20, c.f22]);
+            let rest = [lanes.mag(), lanes.hmass(), lanes.mix()].map(|v| v[l]);
+            assert_eq!(rest, [c.mag, c.hmass, c.mix]);
+            let rest = [lanes.fres(), lanes.fhmass(), lanes.fmix()].map(|v| v[l]);
+            assert_eq!(rest, [c.fres, c.fhmass, c.fmix]);
+        }
+        let one = CellLanes::splat(&cells[2]);
+        assert_eq!(one.mb().map(|v| v[3]), lanes.mb().map(|v| v[2]));
+    }
+
+    #[test]
+    fn lane_lookup_equals_one_pixel_lookup_bit_for_bit() {
+        let p = packed_table();
+        // As below, on a coarser grid, four different pixels at a time.
+        let at = |i: usize| -0.02 + 1.04 * (i % 301) as f32 / 300.0;
+        for i in 0..301 * 8 {
+            let r = Vec4::from_array(std::array::from_fn(|l| at(i + 37 * l)));
+            let c = Vec4::from_array(std::array::from_fn(|l| at(i / 8 + 101 * l)));
+            let lanes = p.lookup_lanes(r, c);
+            for l in 0..4 {
+                assert_eq!(lanes[l], p.lookup_packed(r[l], c[l]), "{r} {c} lane {l}");
+            }
         }
     }
 

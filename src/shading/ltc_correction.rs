@@ -28,10 +28,10 @@
 //! its divisions merged (a unit test checks it against `brdf::spec_local`),
 //! and a rational `atan` for the solid angles (max error 0.005 rad).
 
-use super::lanes::{self, Wide, Wide3, add3, cross, dot, scale3};
-use super::ltc::LtcCell;
+use super::lanes::{Wide, Wide3, add3, cross, dot, scale3};
+use super::ltc::{CellLanes, LtcCell};
 use super::polygon::MAX_VERTICES;
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec4};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 /// Largest correction factor (the ratio only runs away where the model has
@@ -46,50 +46,12 @@ const TRUST: f32 = 0.1;
 /// `brdf::MIN_COS`, squared where Smith's Lambda divides by cos².
 const MIN_COS: f32 = super::brdf::MIN_COS;
 
-/// One lobe's LTC model `mag ((1 - mix) D / hmass + mix cos / π)` with its
-/// constants folded: `D` of a unit `w` is `det o.z / (π |o|^4)` for
-/// `o = M^-1 w`, so the model is `kd o.z / |o|^4 + kc w.z` (o.z > 0).
-#[derive(Clone, Copy, Debug)]
-struct LobeModel {
-    m: [f32; 4],
-    kd: f32,
-    kc: f32,
-    mag: f32,
-}
-
-impl LobeModel {
-    /// The two lobes of a cell, `(A, B)`, with one division between them.
-    fn pair(cell: &LtcCell) -> (LobeModel, LobeModel) {
-        let inv = 1.0 / (PI * cell.hmass * cell.fhmass);
-        let lobe = |m: [f32; 4], mag: f32, mix: f32, inv_hmass: f32| {
-            let det = (m[0] * m[3] - m[1] * m[2]).abs();
-            LobeModel {
-                m,
-                kd: mag * (1.0 - mix) * det * inv_hmass,
-                kc: mag * mix * (1.0 / PI),
-                mag,
-            }
-        };
-        (
-            lobe(
-                [cell.m00, cell.m02, cell.m20, cell.m22],
-                cell.mag,
-                cell.mix,
-                inv * cell.fhmass,
-            ),
-            lobe(
-                [cell.f00, cell.f02, cell.f20, cell.f22],
-                cell.fres,
-                cell.fmix,
-                inv * cell.hmass,
-            ),
-        )
-    }
-}
-
 /// The exact lobes at unit directions of the upper hemisphere, for one view:
 /// `A = f_spec(F = 1) cos` and `B = A (1 - wo.h)^5`, as `brdf::spec_local`
-/// computes them, with the view's terms computed once.
+/// computes them, with the view's terms computed once. The scalar reference
+/// of `exact_lanes` (whose constants `CorrectionLanes::new` computes across
+/// lanes).
+#[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 struct ExactLobes {
     wo: Vec3,
@@ -100,6 +62,7 @@ struct ExactLobes {
     k: f32,
 }
 
+#[cfg(test)]
 impl ExactLobes {
     fn new(wo: Vec3, alpha: f32) -> ExactLobes {
         ExactLobes {
@@ -116,7 +79,6 @@ impl ExactLobes {
     /// clamps it) and `t = sqrt(c² + a² (wx² + wy²))`, `1 + Lambda(w) =
     /// (c + t) / (2 c)`, so `A = D G2 wz / (4 c cos_o) =
     /// a² |h|^4 wz / (2 π cos_o q² (c lo2 + t))`; `B = A (1 - wo.h/|h|)^5`.
-    #[cfg(test)]
     fn eval(&self, w: Vec3) -> (f32, f32) {
         let h = w + self.wo;
         let l2 = h.length_squared().max(1e-30);
@@ -161,9 +123,9 @@ pub fn lobe_factors(
     let n = poly.len().min(MAX_VERTICES);
     let k = || {
         CorrectionLanes::new(
-            &[*cell; lanes::LANES],
-            &[wo; lanes::LANES],
-            &[alpha; lanes::LANES],
+            &CellLanes::splat(cell),
+            [Vec4::splat(wo.x), Vec4::splat(wo.z)],
+            Vec4::splat(alpha),
         )
     };
     let s = (share_a, share_b);
@@ -220,34 +182,59 @@ pub struct CorrectionLanes {
 }
 
 impl CorrectionLanes {
-    /// Lane `l` from its table cell, view `(sin θv, 0, cos θv)` and GGX alpha.
-    pub fn new(
-        cells: &[LtcCell; lanes::LANES],
-        wo: &[Vec3; lanes::LANES],
-        alpha: &[f32; lanes::LANES],
-    ) -> Self {
-        let models: [(LobeModel, LobeModel); lanes::LANES] =
-            std::array::from_fn(|l| LobeModel::pair(&cells[l]));
-        let exact: [ExactLobes; lanes::LANES] =
-            std::array::from_fn(|l| ExactLobes::new(wo[l], alpha[l]));
-        let a = |k: usize| Wide::from_fn(|l| models[l].0.m[k]);
-        let b = |k: usize| Wide::from_fn(|l| models[l].1.m[k]);
+    /// Lane `l` from its table cell, view `(sin θv, 0, cos θv)` (`wo` =
+    /// its x and z) and GGX alpha. In `f32`, across the lanes, in the
+    /// order of operations of the scalar formulas (so the same values bit
+    /// for bit as one pixel at a time).
+    #[inline]
+    pub fn new(cells: &CellLanes, [wox, woz]: [Vec4; 2], alpha: Vec4) -> Self {
+        // One division for both lobes' `1 / hmass`.
+        let inv = Vec4::ONE / (Vec4::splat(PI) * cells.hmass() * cells.fhmass());
+        let (ma, kda, kca) = lobe_model(cells.ma(), cells.mag(), cells.mix(), inv * cells.fhmass());
+        let (mb, kdb, kcb) =
+            lobe_model(cells.mb(), cells.fres(), cells.fmix(), inv * cells.hmass());
+        // `ExactLobes::new`: `brdf::smith_lambda(alpha, wo)` with wo.y = 0
+        // (sin² = wo.x² + 0 is wo.x² exactly).
+        let a2 = alpha * alpha;
+        let cos2 = (woz * woz).max(Vec4::splat(MIN_COS * MIN_COS));
+        let a = a2 * (wox * wox) / cos2;
+        let lambda = a / (Vec4::splat(2.0) * ((Vec4::ONE + a).sqrt() + Vec4::ONE));
+        let lo2 = Vec4::ONE + Vec4::splat(2.0) * lambda;
+        let k = Vec4::splat(2.0 * PI) * woz.abs().max(Vec4::splat(MIN_COS));
         CorrectionLanes {
-            ma: [a(0), a(1), a(2), a(3)],
-            kda: Wide::from_fn(|l| models[l].0.kd),
-            kca: Wide::from_fn(|l| models[l].0.kc),
-            maga: Wide::from_fn(|l| models[l].0.mag),
-            mb: [b(0), b(1), b(2), b(3)],
-            kdb: Wide::from_fn(|l| models[l].1.kd),
-            kcb: Wide::from_fn(|l| models[l].1.kc),
-            magb: Wide::from_fn(|l| models[l].1.mag),
-            wox: Wide::from_fn(|l| exact[l].wo.x),
-            woz: Wide::from_fn(|l| exact[l].wo.z),
-            a2: Wide::from_fn(|l| exact[l].a2),
-            lo2: Wide::from_fn(|l| exact[l].lo2),
-            k: Wide::from_fn(|l| exact[l].k),
+            ma: ma.map(wide),
+            kda: wide(kda),
+            kca: wide(kca),
+            maga: wide(cells.mag()),
+            mb: mb.map(wide),
+            kdb: wide(kdb),
+            kcb: wide(kcb),
+            magb: wide(cells.fres()),
+            wox: wide(wox),
+            woz: wide(woz),
+            a2: wide(a2),
+            lo2: wide(lo2),
+            k: wide(k),
         }
     }
+}
+
+/// One lobe's LTC model `mag ((1 - mix) D / hmass + mix cos / π)` with its
+/// constants folded: `D` of a unit `w` is `det o.z / (π |o|^4)` for
+/// `o = M^-1 w`, so the model is `kd o.z / |o|^4 + kc w.z` (o.z > 0).
+/// Returns `(M^-1, kd, kc)` per lane; `inv_hmass` is `1 / (π hmass)`.
+#[inline(always)]
+fn lobe_model(m: [Vec4; 4], mag: Vec4, mix: Vec4, inv_hmass: Vec4) -> ([Vec4; 4], Vec4, Vec4) {
+    let det = (m[0] * m[3] - m[1] * m[2]).abs();
+    let kd = mag * (Vec4::ONE - mix) * det * inv_hmass;
+    let kc = mag * mix * Vec4::splat(1.0 / PI);
+    (m, kd, kc)
+}
+
+/// `f32` lanes as `Wide` (exact).
+#[inline(always)]
+fn wide(v: Vec4) -> Wide {
+    Wide(v.to_array().map(f64::from))
 }
 
 /// `LobeModel::value` per lane.
@@ -380,13 +367,13 @@ mod tests {
                     let (ea, eb) = e.eval(w);
                     // The lane version the correction runs, at the same point.
                     let k = CorrectionLanes::new(
-                        &[crate::shading::ltc::LtcCell {
+                        &CellLanes::splat(&crate::shading::ltc::LtcCell {
                             hmass: 1.0,
                             fhmass: 1.0,
                             ..Default::default()
-                        }; lanes::LANES],
-                        &[wo; lanes::LANES],
-                        &[alpha; lanes::LANES],
+                        }),
+                        [Vec4::splat(wo.x), Vec4::splat(wo.z)],
+                        Vec4::splat(alpha),
                     );
                     let wl = [Wide::splat(w.x), Wide::splat(w.y), Wide::splat(w.z)];
                     let (la, lb) = exact_lanes(&k, &wl);
@@ -407,6 +394,41 @@ mod tests {
                         "B {eb} vs {b} at {w}, {wo}, r {r}"
                     );
                 }
+            }
+        }
+    }
+
+    /// Every constant, in a fixed order.
+    fn constants(k: &CorrectionLanes) -> Vec<Wide> {
+        let mut v = k.ma.to_vec();
+        v.extend(k.mb);
+        v.extend([k.kda, k.kca, k.maga, k.kdb, k.kcb, k.magb]);
+        v.extend([k.wox, k.woz, k.a2, k.lo2, k.k]);
+        v
+    }
+
+    #[test]
+    fn lane_constants_are_each_pixels_constants_bit_for_bit() {
+        // What the batch builds for four different pixels, against what
+        // the scalar path (`lobe_factors`) builds for each alone.
+        let p = crate::shading::ltc::packed_table();
+        let at = [(0.05, 0.99), (0.5, 0.3), (0.9, 0.01), (0.27, 0.7)];
+        let cells = CellLanes::from_packed(&at.map(|(r, c)| p.lookup_packed(r, c)));
+        let view = at.map(|(_, c)| Vec3::new((1.0 - c * c).sqrt(), 0.0, c));
+        let alpha = at.map(|(r, _)| brdf::alpha_from_roughness(r));
+        let lanes = CorrectionLanes::new(
+            &cells,
+            [view.map(|v| v.x), view.map(|v| v.z)].map(Vec4::from_array),
+            Vec4::from_array(alpha),
+        );
+        for (l, &(r, c)) in at.iter().enumerate() {
+            let one = CorrectionLanes::new(
+                &CellLanes::splat(&p.lookup(r, c)),
+                [Vec4::splat(view[l].x), Vec4::splat(view[l].z)],
+                Vec4::splat(alpha[l]),
+            );
+            for (i, (a, b)) in constants(&lanes).iter().zip(constants(&one)).enumerate() {
+                assert_eq!(a.0[l].to_bits(), b.0[0].to_bits(), "constant {i}, lane {l}");
             }
         }
     }

@@ -5,9 +5,10 @@
 //! LTC shape correction (`ltc_correction::lobe_factors_lanes`) all run
 //! across pixels.
 //!
-//! Per batch, what does not depend on the light is set up once, lane by
-//! lane in scalar code: the shading frame, the LTC cell (a table lookup is
-//! loads) and the correction's constants. Per light, the vertices are taken
+//! Per batch, what does not depend on the light is set up once, across the
+//! lanes in `f32` (`PixelBatch::new`, bit for bit the scalar path's values):
+//! the shading frame, the LTC cell (the blend of four table cells stays a
+//! per-lane gather, transposed into lanes) and the correction's constants. Per light, the vertices are taken
 //! into each lane's local frame; each contour sum is a loop over the edges
 //! with running sums.
 //!
@@ -31,14 +32,14 @@
 //! scalar path. `tests/u_batch.rs` checks the result against the scalar
 //! path.
 
-use super::brdf::{Frame, alpha_from_roughness, has_specular_lobe};
+use super::brdf::MIN_ALPHA;
 use super::lanes::{E, Mask, Wide, Wide3, dot};
-use super::ltc::{self, LtcCell};
+use super::ltc::{self, CellLanes, LtcCell};
 use super::ltc_correction::{CorrectionLanes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
 use super::unshadowed::{ShadingLight, SurfacePoint, unshadowed_lobes_prepared};
 use crate::scene::Light;
-use glam::Vec3;
+use glam::{BVec4A, Vec3, Vec4};
 
 pub use super::lanes::LANES;
 
@@ -126,101 +127,88 @@ pub struct PixelBatch {
 
 impl PixelBatch {
     /// `points[l]` for each lane `l` that has one (at most `LANES`).
+    ///
+    /// Across the lanes in `f32` (`Vec4`, one lane per element) with the
+    /// scalar path's formulas in its order of operations, so every lane
+    /// gets its pixel's frame, cell and constants bit for bit; converted to
+    /// `f64` lanes once at the end.
     pub fn new(points: &[Option<SurfacePoint>]) -> PixelBatch {
-        let blank = SurfacePoint {
-            p: Vec3::ZERO,
-            n: Vec3::Z,
-            wo: Vec3::Z,
-            diffuse: Vec3::ZERO,
-            specular: Vec3::ZERO,
-            roughness: 1.0,
-        };
-        let mut sp = [blank; LANES];
-        let mut active = [false; LANES];
-        for (l, p) in points.iter().take(LANES).enumerate() {
-            if let Some(p) = p {
-                sp[l] = *p;
-                active[l] = true;
+        const { assert!(LANES == 4, "the setup runs on Vec4 lanes") };
+        // Read in place (each field gathered once across the lanes); the
+        // points themselves are copied once, into the batch.
+        let at = |l: usize| points.get(l).and_then(Option::as_ref);
+        let sp = [0, 1, 2, 3].map(|l| at(l).unwrap_or(&BLANK));
+        let active = Mask::from_fn(|l| at(l).is_some());
+        let v4 = |f: fn(&SurfacePoint) -> f32| Vec4::new(f(sp[0]), f(sp[1]), f(sp[2]), f(sp[3]));
+        let n = [v4(|s| s.n.x), v4(|s| s.n.y), v4(|s| s.n.z)];
+        let wo = [v4(|s| s.wo.x), v4(|s| s.wo.y), v4(|s| s.wo.z)];
+        let (frame, cos_v) = frames(&n, &wo);
+        let ks = [
+            v4(|s| s.specular.x),
+            v4(|s| s.specular.y),
+            v4(|s| s.specular.z),
+        ]
+        .map(wide);
+        // `has_specular_lobe` (`Vec3::max_element`, whose compare-select
+        // `Wide::max` is) and `min_element() < 1`, on the exact `f64`
+        // values. Lobe A is wanted wherever there is a lobe (the same test).
+        let lobe = active.and(ks[0].max(ks[1]).max(ks[2]).gt(Wide::ZERO));
+        let want_b = lobe.and(ks[0].min(ks[1]).min(ks[2]).lt(Wide::ONE));
+        // Lanes without a specular lobe (and padding) get a harmless cell
+        // (their lobes are masked off): identity matrices, unit masses, no
+        // magnitude; a normal view and alpha 1.
+        let on = BVec4A::new(lobe.lane(0), lobe.lane(1), lobe.lane(2), lobe.lane(3));
+        let roughness = v4(|s| s.roughness);
+        let mut cells = ltc::packed_table().lookup_lanes(roughness, cos_v);
+        for (l, cell) in cells.iter_mut().enumerate() {
+            if !lobe.lane(l) {
+                *cell = ltc::packed_cell(&BLANK_CELL);
             }
         }
-        // Lanes without a specular lobe get a harmless cell (its lobes are
-        // masked off): identity matrices, unit masses, no magnitude.
-        let blank_cell = LtcCell {
-            m00: 1.0,
-            m22: 1.0,
-            f00: 1.0,
-            f22: 1.0,
-            hmass: 1.0,
-            fhmass: 1.0,
-            ..LtcCell::default()
-        };
-        let mut cell = [blank_cell; LANES];
-        let mut frames = [Frame {
-            x: Vec3::X,
-            y: Vec3::Y,
-            z: Vec3::Z,
-        }; LANES];
-        let mut lobe = [false; LANES];
-        let mut wo = [Vec3::Z; LANES];
-        let mut alpha = [1.0f32; LANES];
-        for l in 0..LANES {
-            let s = &sp[l];
-            if !active[l] {
-                continue;
-            }
-            // The scalar path's own frame, lookup and view: identical values.
-            frames[l] = Frame::from_normal_view(s.n, s.wo);
-            if has_specular_lobe(s.specular) {
-                lobe[l] = true;
-                let cos_v = s.n.dot(s.wo);
-                cell[l] = ltc::packed_table().lookup(s.roughness, cos_v);
-                let c = cos_v.clamp(0.0, 1.0);
-                wo[l] = Vec3::new((1.0 - c * c).sqrt(), 0.0, c);
-                alpha[l] = alpha_from_roughness(s.roughness);
-            }
-        }
-        let lane3 = |f: &[Vec3; LANES]| -> Wide3 {
-            [
-                Wide::from_fn(|l| f[l].x),
-                Wide::from_fn(|l| f[l].y),
-                Wide::from_fn(|l| f[l].z),
-            ]
-        };
-        let cells = cell.map(|c| c.to_array());
-        let cf = |k: usize| Wide::from_fn(|l| cells[l][k]);
-        let ma = [cf(0), cf(1), cf(2), cf(3)];
-        let mb = [cf(7), cf(8), cf(9), cf(10)];
+        let cells = CellLanes::from_packed(&cells);
+        let c = cos_v.clamp(Vec4::ZERO, Vec4::ONE);
+        let view = [
+            Vec4::select(on, (Vec4::ONE - c * c).sqrt(), Vec4::ZERO),
+            Vec4::select(on, c, Vec4::ONE),
+        ];
+        // `alpha_from_roughness`.
+        let r = roughness.clamp(Vec4::ZERO, Vec4::ONE);
+        let alpha = Vec4::select(on, (r * r).max(Vec4::splat(MIN_ALPHA)), Vec4::ONE);
+
+        let ma = cells.ma().map(wide);
+        let mb = cells.mb().map(wide);
         let norm = |m: &[Wide; 4]| {
             (m[0].abs() + m[1].abs())
                 .max(m[2].abs() + m[3].abs())
                 .max(Wide::ONE)
         };
-        let lobe = Mask::from_fn(|l| lobe[l]);
+        let (mix, fmix) = (wide(cells.mix()), wide(cells.fmix()));
+        let wide3 = |v: [Vec4; 3]| v.map(wide);
         PixelBatch {
-            active: Mask::from_fn(|l| active[l]),
-            p: lane3(&sp.map(|s| s.p)),
-            frame: [
-                lane3(&frames.map(|f| f.x)),
-                lane3(&frames.map(|f| f.y)),
-                lane3(&frames.map(|f| f.z)),
-            ],
-            kd: lane3(&sp.map(|s| s.diffuse)),
-            ks: lane3(&sp.map(|s| s.specular)),
+            active,
+            p: wide3([v4(|s| s.p.x), v4(|s| s.p.y), v4(|s| s.p.z)]),
+            frame: frame.map(wide3),
+            kd: wide3([
+                v4(|s| s.diffuse.x),
+                v4(|s| s.diffuse.y),
+                v4(|s| s.diffuse.z),
+            ]),
+            ks,
             lobe,
-            want_a: lobe.and(Mask::from_fn(|l| sp[l].specular.max_element() > 0.0)),
-            want_b: lobe.and(Mask::from_fn(|l| sp[l].specular.min_element() < 1.0)),
+            want_a: lobe,
+            want_b,
             norm_a: norm(&ma),
             norm_b: norm(&mb),
             ma,
             mb,
-            wa: (Wide::ONE - cf(6)) / cf(5),
-            mix: cf(6),
-            wb: (Wide::ONE - cf(13)) / cf(12),
-            fmix: cf(13),
-            mag: cf(4),
-            fres: cf(11),
-            corr: CorrectionLanes::new(&cell, &wo, &alpha),
-            sp,
+            wa: (Wide::ONE - mix) / wide(cells.hmass()),
+            mix,
+            wb: (Wide::ONE - fmix) / wide(cells.fhmass()),
+            fmix,
+            mag: wide(cells.mag()),
+            fres: wide(cells.fres()),
+            corr: CorrectionLanes::new(&cells, view, alpha),
+            sp: sp.map(|s| *s),
         }
     }
 
@@ -228,6 +216,69 @@ impl PixelBatch {
     pub fn point(&self, l: usize) -> Option<&SurfacePoint> {
         self.active.lane(l).then_some(&self.sp[l])
     }
+}
+
+/// The padding lanes' point (never shaded: masked off by `active`).
+const BLANK: SurfacePoint = SurfacePoint {
+    p: Vec3::ZERO,
+    n: Vec3::Z,
+    wo: Vec3::Z,
+    diffuse: Vec3::ZERO,
+    specular: Vec3::ZERO,
+    roughness: 1.0,
+};
+
+/// The cell of lanes without a specular lobe.
+const BLANK_CELL: LtcCell = LtcCell {
+    m00: 1.0,
+    m02: 0.0,
+    m20: 0.0,
+    m22: 1.0,
+    mag: 0.0,
+    hmass: 1.0,
+    mix: 0.0,
+    f00: 1.0,
+    f02: 0.0,
+    f20: 0.0,
+    f22: 1.0,
+    fres: 0.0,
+    fhmass: 1.0,
+    fmix: 0.0,
+    err: 0.0,
+};
+
+/// `Frame::from_normal_view` of each lane (rows x, y, z as world vectors),
+/// and `n . wo` (the scalar path's LTC lookup cosine). Lanes whose view
+/// lies along the normal take the scalar fallback, lane by lane.
+#[inline(always)]
+fn frames(n: &[Vec4; 3], wo: &[Vec4; 3]) -> ([[Vec4; 3]; 3], Vec4) {
+    let dot = |a: &[Vec4; 3], b: &[Vec4; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let nw = dot(n, wo);
+    let t = [wo[0] - n[0] * nw, wo[1] - n[1] * nw, wo[2] - n[2] * nw];
+    let l2 = dot(&t, &t);
+    let len = l2.sqrt();
+    let mut x = [t[0] / len, t[1] / len, t[2] / len];
+    // As the scalar rule: `l2 > 1e-12` or the fallback (NaN included).
+    let tangent = l2.cmpgt(Vec4::splat(1e-12));
+    for l in 0..LANES {
+        if !tangent.test(l) {
+            let f = Vec3::new(n[0][l], n[1][l], n[2][l]).any_orthonormal_vector();
+            (x[0][l], x[1][l], x[2][l]) = (f.x, f.y, f.z);
+        }
+    }
+    // `n.cross(x)` as glam writes it.
+    let y = [
+        n[1] * x[2] - x[1] * n[2],
+        n[2] * x[0] - x[2] * n[0],
+        n[0] * x[1] - x[0] * n[1],
+    ];
+    ([x, y, *n], nw)
+}
+
+/// `f32` lanes as `Wide` (exact).
+#[inline(always)]
+fn wide(v: Vec4) -> Wide {
+    Wide(v.to_array().map(E::from))
 }
 
 /// (diffuse, specular) lobes per lane, one `[f32; LANES]` per channel.
@@ -664,4 +715,39 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
         }
     }
     counts
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shading::brdf::Frame;
+
+    #[test]
+    fn lane_frames_are_the_scalar_frames_bit_for_bit() {
+        let n = |x: f32, y: f32| Vec3::new(x, y, 1.0).normalize();
+        // Ordinary views, a view along the normal, one opposite it, one
+        // within 1e-6 of it (the fallback's threshold), and a padding lane.
+        let cases = [
+            (n(0.1, -0.3), Vec3::new(0.5, 0.2, 0.8).normalize()),
+            (n(0.7, 0.2), n(0.7, 0.2)),
+            (n(-0.2, 0.4), -n(-0.2, 0.4)),
+            (Vec3::Z, Vec3::new(1e-7, 0.0, 1.0).normalize()),
+            (n(0.0, 0.0), Vec3::new(-0.9, 0.1, 0.05).normalize()),
+            (BLANK.n, BLANK.wo),
+            (n(0.3, 0.3), Vec3::new(0.0, 1.0, 0.0)),
+            (n(-0.6, 0.1), Vec3::new(0.2, -0.1, 0.97).normalize()),
+        ];
+        for group in cases.chunks(LANES) {
+            let v4 = |f: &dyn Fn(usize) -> f32| Vec4::from_array(std::array::from_fn(f));
+            let ns = [0, 1, 2].map(|k| v4(&|l| group[l].0[k]));
+            let wos = [0, 1, 2].map(|k| v4(&|l| group[l].1[k]));
+            let (rows, cos_v) = frames(&ns, &wos);
+            for (l, &(n, wo)) in group.iter().enumerate() {
+                let want = Frame::from_normal_view(n, wo);
+                let got = rows.map(|r| Vec3::new(r[0][l], r[1][l], r[2][l]));
+                assert_eq!(got, [want.x, want.y, want.z], "n {n}, wo {wo}");
+                assert_eq!(cos_v[l].to_bits(), n.dot(wo).to_bits(), "n {n}, wo {wo}");
+            }
+        }
+    }
 }
