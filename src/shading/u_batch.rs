@@ -376,13 +376,27 @@ fn inv_len(v: &Wide3) -> Wide {
 /// 2.1e-9), carried into each lane's error bound.
 const POLY_ERR_F64: E = 3e-9;
 
+/// `polygon::THETA_SIN_POLY` in every lane, kept in memory as whole vectors
+/// so that the multiply-adds read them directly (a splat per use cost a
+/// broadcast instruction each).
+static THETA_SIN_WIDE: [Wide; 11] = {
+    let p = super::polygon::THETA_SIN_POLY;
+    let mut w = [Wide::ZERO; 11];
+    let mut i = 0;
+    while i < 11 {
+        w[i] = Wide([p[i]; super::lanes::LANES]);
+        i += 1;
+    }
+    w
+};
+
 /// `theta / sin(theta)` for `x = cos(theta)` in [0, 1]: the scalar path's
 /// polynomial, per lane.
 #[inline(always)]
 fn theta_over_sin_pos(x: Wide) -> Wide {
     // The same Estrin scheme as the scalar function, its multiply-adds
     // fused (14 instructions instead of 23; the values differ by rounding).
-    let c = super::polygon::THETA_SIN_POLY.map(Wide::splat);
+    let c = &THETA_SIN_WIDE;
     let t = x.mul_add(Wide::splat(2.0), Wide::splat(-1.0));
     let t2 = t * t;
     let t4 = t2 * t2;
