@@ -1,0 +1,109 @@
+//! Inputs of the `U` benchmarks (`benches/ltc.rs`) and of the profiling
+//! workload `examples/u_profile.rs`: both time the same lights and points.
+
+use glam::{Vec3, vec3};
+use penumbra::scene::Light;
+use penumbra::shading::SurfacePoint;
+
+/// Small deterministic generator (xorshift) so inputs are reproducible.
+pub struct Rng(pub u64);
+impl Rng {
+    pub fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+pub fn quad(c: Vec3, u: Vec3, v: Vec3) -> Light {
+    let vertices = vec![c - u - v, c + u - v, c + u + v, c - u + v];
+    let n = u.cross(v);
+    Light {
+        vertices,
+        radiance: Vec3::splat(5.0),
+        two_sided: false,
+        normal: n.normalize(),
+        area: 4.0 * n.length(),
+        quad: Some((c, u, v)),
+    }
+}
+
+/// Four quads, all emitting toward the plane y = 0 around the origin.
+pub fn lights() -> Vec<Light> {
+    vec![
+        quad(
+            vec3(0.0, 3.0, 0.0),
+            vec3(1.0, 0.0, 0.0),
+            vec3(0.0, 0.0, 0.5),
+        ),
+        quad(
+            vec3(-3.0, 1.5, 1.0),
+            vec3(0.0, 0.0, 0.6),
+            vec3(0.0, -0.4, 0.0),
+        ),
+        quad(
+            vec3(2.5, 2.0, -2.0),
+            vec3(0.3, 0.0, 0.3),
+            vec3(0.0, 0.5, 0.0),
+        ),
+        quad(
+            vec3(0.0, 1.0, 4.0),
+            vec3(-1.5, 0.0, 0.0),
+            vec3(0.0, 0.7, 0.0),
+        ),
+    ]
+}
+
+/// A 1280x720 "G-buffer": points on the plane y = 0 seen from a camera at
+/// (0, 2, -6), normals wobbling around +Y, roughness varying across it.
+pub fn gbuffer() -> Vec<SurfacePoint> {
+    let (w, h) = (1280, 720);
+    let eye = vec3(0.0, 2.0, -6.0);
+    let mut out = Vec::with_capacity(w * h);
+    for j in 0..h {
+        for i in 0..w {
+            let p = vec3(
+                (i as f32 / w as f32 - 0.5) * 10.0,
+                0.0,
+                (j as f32 / h as f32 - 0.5) * 8.0,
+            );
+            let n = vec3(
+                0.2 * (i as f32 * 0.05).sin(),
+                1.0,
+                0.2 * (j as f32 * 0.07).cos(),
+            )
+            .normalize();
+            out.push(SurfacePoint {
+                p,
+                n,
+                wo: (eye - p).normalize(),
+                diffuse: vec3(0.5, 0.4, 0.3),
+                specular: Vec3::splat(0.04),
+                roughness: 0.05 + 0.9 * i as f32 / w as f32,
+            });
+        }
+    }
+    out
+}
+
+/// 4096 shading points on the plane y = 0 under the lights, with random
+/// normals, views and roughness (all facing light 0).
+pub fn random_points() -> Vec<SurfacePoint> {
+    let mut rng = Rng(0x9e3779b97f4a7c15);
+    (0..4096)
+        .map(|_| {
+            let p = vec3(rng.next() * 6.0 - 3.0, 0.0, rng.next() * 6.0 - 3.0);
+            let n = vec3(rng.next() - 0.5, 2.0, rng.next() - 0.5).normalize();
+            let eye = vec3(rng.next() * 10.0 - 5.0, 0.5 + rng.next() * 4.0, -6.0);
+            SurfacePoint {
+                p,
+                n,
+                wo: (eye - p).normalize(),
+                diffuse: Vec3::splat(0.5),
+                specular: Vec3::splat(0.04),
+                roughness: rng.next(),
+            }
+        })
+        .collect()
+}
