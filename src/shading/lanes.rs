@@ -59,6 +59,14 @@ impl Wide {
         Wide(each(|l| E::from(f(l))))
     }
 
+    /// Four `f32` lanes (glam's `Vec4`, as the batch's setup computes
+    /// across pixels), exactly.
+    #[inline(always)]
+    pub fn from_vec4(v: glam::Vec4) -> Wide {
+        const { assert!(LANES == 4, "one Vec4 element per lane") };
+        Wide(v.to_array().map(E::from))
+    }
+
     /// The lanes as `f32`.
     #[inline(always)]
     pub fn to_f32(self) -> [f32; LANES] {

@@ -202,19 +202,19 @@ impl CorrectionLanes {
         let lo2 = Vec4::ONE + Vec4::splat(2.0) * lambda;
         let k = Vec4::splat(2.0 * PI) * woz.abs().max(Vec4::splat(MIN_COS));
         CorrectionLanes {
-            ma: ma.map(wide),
-            kda: wide(kda),
-            kca: wide(kca),
-            maga: wide(cells.mag()),
-            mb: mb.map(wide),
-            kdb: wide(kdb),
-            kcb: wide(kcb),
-            magb: wide(cells.fres()),
-            wox: wide(wox),
-            woz: wide(woz),
-            a2: wide(a2),
-            lo2: wide(lo2),
-            k: wide(k),
+            ma: ma.map(Wide::from_vec4),
+            kda: Wide::from_vec4(kda),
+            kca: Wide::from_vec4(kca),
+            maga: Wide::from_vec4(cells.mag()),
+            mb: mb.map(Wide::from_vec4),
+            kdb: Wide::from_vec4(kdb),
+            kcb: Wide::from_vec4(kcb),
+            magb: Wide::from_vec4(cells.fres()),
+            wox: Wide::from_vec4(wox),
+            woz: Wide::from_vec4(woz),
+            a2: Wide::from_vec4(a2),
+            lo2: Wide::from_vec4(lo2),
+            k: Wide::from_vec4(k),
         }
     }
 }
@@ -229,12 +229,6 @@ fn lobe_model(m: [Vec4; 4], mag: Vec4, mix: Vec4, inv_hmass: Vec4) -> ([Vec4; 4]
     let kd = mag * (Vec4::ONE - mix) * det * inv_hmass;
     let kc = mag * mix * Vec4::splat(1.0 / PI);
     (m, kd, kc)
-}
-
-/// `f32` lanes as `Wide` (exact).
-#[inline(always)]
-fn wide(v: Vec4) -> Wide {
-    Wide(v.to_array().map(f64::from))
 }
 
 /// `LobeModel::value` per lane.

@@ -148,7 +148,7 @@ impl PixelBatch {
             v4(|s| s.specular.y),
             v4(|s| s.specular.z),
         ]
-        .map(wide);
+        .map(Wide::from_vec4);
         // `has_specular_lobe` (`Vec3::max_element`, whose compare-select
         // `Wide::max` is) and `min_element() < 1`, on the exact `f64`
         // values. Lobe A is wanted wherever there is a lobe (the same test).
@@ -175,15 +175,15 @@ impl PixelBatch {
         let r = roughness.clamp(Vec4::ZERO, Vec4::ONE);
         let alpha = Vec4::select(on, (r * r).max(Vec4::splat(MIN_ALPHA)), Vec4::ONE);
 
-        let ma = cells.ma().map(wide);
-        let mb = cells.mb().map(wide);
+        let ma = cells.ma().map(Wide::from_vec4);
+        let mb = cells.mb().map(Wide::from_vec4);
         let norm = |m: &[Wide; 4]| {
             (m[0].abs() + m[1].abs())
                 .max(m[2].abs() + m[3].abs())
                 .max(Wide::ONE)
         };
-        let (mix, fmix) = (wide(cells.mix()), wide(cells.fmix()));
-        let wide3 = |v: [Vec4; 3]| v.map(wide);
+        let (mix, fmix) = (Wide::from_vec4(cells.mix()), Wide::from_vec4(cells.fmix()));
+        let wide3 = |v: [Vec4; 3]| v.map(Wide::from_vec4);
         PixelBatch {
             active,
             p: wide3([v4(|s| s.p.x), v4(|s| s.p.y), v4(|s| s.p.z)]),
@@ -201,12 +201,12 @@ impl PixelBatch {
             norm_b: norm(&mb),
             ma,
             mb,
-            wa: (Wide::ONE - mix) / wide(cells.hmass()),
+            wa: (Wide::ONE - mix) / Wide::from_vec4(cells.hmass()),
             mix,
-            wb: (Wide::ONE - fmix) / wide(cells.fhmass()),
+            wb: (Wide::ONE - fmix) / Wide::from_vec4(cells.fhmass()),
             fmix,
-            mag: wide(cells.mag()),
-            fres: wide(cells.fres()),
+            mag: Wide::from_vec4(cells.mag()),
+            fres: Wide::from_vec4(cells.fres()),
             corr: CorrectionLanes::new(&cells, view, alpha),
             sp: sp.map(|s| *s),
         }
@@ -273,12 +273,6 @@ fn frames(n: &[Vec4; 3], wo: &[Vec4; 3]) -> ([[Vec4; 3]; 3], Vec4) {
         n[0] * x[1] - x[0] * n[1],
     ];
     ([x, y, *n], nw)
-}
-
-/// `f32` lanes as `Wide` (exact).
-#[inline(always)]
-fn wide(v: Vec4) -> Wide {
-    Wide(v.to_array().map(E::from))
 }
 
 /// (diffuse, specular) lobes per lane, one `[f32; LANES]` per channel.
