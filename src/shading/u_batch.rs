@@ -104,10 +104,10 @@ pub struct PixelBatch {
     frame: [Wide3; 3],
     kd: Wide3,
     ks: Wide3,
-    /// Lanes with a specular lobe, and those of them whose LTC lobes A (F0)
-    /// and B (Schlick) carry weight.
+    /// Lanes with a specular lobe (its LTC lobe A, the F0 term, carries
+    /// weight in all of them: the same test), and those of them whose lobe
+    /// B (Schlick) does.
     lobe: Mask,
-    want_a: Mask,
     want_b: Mask,
     /// `M^-1` of lobe A and of lobe B: m00, m02, m20, m22; their infinity
     /// norms (for the error bound).
@@ -195,7 +195,6 @@ impl PixelBatch {
             ]),
             ks,
             lobe,
-            want_a: lobe,
             want_b,
             norm_a: norm(&ma),
             norm_b: norm(&mb),
@@ -669,17 +668,17 @@ fn lobes_n<const N: usize>(b: &PixelBatch, light: &BatchLight, out: &mut LaneLob
                     (Wide::ZERO, Wide::ZERO, Wide::ZERO)
                 }
             };
-            let (sum_a, bnd_a, gain_a) = lobe_sum(&b.ma, b.norm_a, lobe.and(b.want_a));
+            let (sum_a, bnd_a, gain_a) = lobe_sum(&b.ma, b.norm_a, lobe);
             let (sum_b, bnd_b, gain_b) = lobe_sum(&b.mb, b.norm_b, lobe.and(b.want_b));
             let share_a = b.wa.mul_add(form_factor(sum_a), b.mix * ff);
             let share_b = b.wb.mul_add(form_factor(sum_b), b.fmix * ff);
             let (ka, kb) = lobe_factors_lanes(&u, &dots, &b.corr, share_a, share_b);
             let err_a = eps * bnd_a * gain_a * Wide::splat(0.5 / std::f64::consts::PI);
             let err_b = eps * bnd_b * gain_b * Wide::splat(0.5 / std::f64::consts::PI);
-            let a = b.want_a.select(b.mag * share_a * ka, Wide::ZERO);
+            let a = b.lobe.select(b.mag * share_a * ka, Wide::ZERO);
             let bb = b.want_b.select(b.fres * share_b * kb, Wide::ZERO);
             let a_err = b
-                .want_a
+                .lobe
                 .select(b.mag * ka * b.wa.mul_add(err_a, b.mix * err_l), Wide::ZERO);
             let b_err = b.want_b.select(
                 b.fres * kb * b.wb.mul_add(err_b, b.fmix * err_l),
