@@ -8,8 +8,6 @@
 //! valgrind it prints its own ns per evaluation (a hint: take the minimum
 //! of several runs).
 
-// The bench's synthetic G-buffer is not used here.
-#[allow(dead_code)]
 #[path = "../benches/support/u_inputs.rs"]
 mod u_inputs;
 
@@ -29,8 +27,27 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let inputs = u_inputs::random_points();
-    let light = BatchLight::new(&u_inputs::lights()[0]);
+    // `pass N`: the 1280x720 G-buffer of `u_pass 1280x720/batched, N lights`
+    // instead, once per rep.
+    let pass: Option<usize> = match std::env::args().nth(2).as_deref() {
+        None => None,
+        Some(s) => match s.strip_prefix("pass").map(str::parse) {
+            Some(Ok(n)) if (1..=4).contains(&n) => Some(n),
+            _ => {
+                eprintln!("u_profile: the second argument is passN, N in 1..=4");
+                std::process::exit(2);
+            }
+        },
+    };
+    let inputs = match pass {
+        Some(_) => u_inputs::gbuffer(),
+        None => u_inputs::random_points(),
+    };
+    let lights: Vec<BatchLight> = u_inputs::lights()
+        .iter()
+        .take(pass.unwrap_or(1))
+        .map(BatchLight::new)
+        .collect();
     let mut sum = Vec3::ZERO;
     let mut counts = LaneCounts::default();
     let mut out = LaneLobes::default();
@@ -40,16 +57,18 @@ fn main() {
             let lanes: [Option<SurfacePoint>; LANES] =
                 std::array::from_fn(|l| group.get(l).copied());
             let batch = PixelBatch::new(black_box(&lanes));
-            let c = lobes_batch(&batch, &light, &mut out);
-            counts.fast += c.fast;
-            counts.scalar += c.scalar;
-            for l in 0..group.len() {
-                let (d, s) = out.lane(l);
-                sum += d + s;
+            for light in &lights {
+                let c = lobes_batch(&batch, light, &mut out);
+                counts.fast += c.fast;
+                counts.scalar += c.scalar;
+                for l in 0..group.len() {
+                    let (d, s) = out.lane(l);
+                    sum += d + s;
+                }
             }
         }
     }
-    let evals = reps * inputs.len();
+    let evals = reps * inputs.len() * lights.len();
     println!(
         "{evals} evaluations, {:.1} ns each; lanes on the scalar path {}; sum of U {sum}",
         start.elapsed().as_nanos() as f64 / evals.max(1) as f64,

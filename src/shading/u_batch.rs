@@ -425,32 +425,35 @@ fn edge_parts(a: &Wide3, b: &Wide3, e: &Wide3, ia: Wide, ib: Wide) -> (Wide, Wid
     (d, cz, size)
 }
 
-/// `sum theta/sin(theta) cz` and `sum theta/sin(theta) size` over edges.
-/// The `pi / sin` branch of theta/sin is taken only when some lane that
-/// counts (`live`) has an edge wider than 90 degrees (rare: very wide
-/// polygons).
+/// `sum theta/sin(theta) cz` and `sum theta/sin(theta) size` over the `K`
+/// edges that `edge(i)` gives as (cosine, cz, size), each edge's terms
+/// added as soon as they are made (no arrays of them live at once). The
+/// `pi / sin` branch of theta/sin is needed only when some lane that counts
+/// (`live`) has an edge wider than 90 degrees (rare: very wide polygons);
+/// then the edges are made again and summed with it.
 #[inline(always)]
 fn sum_terms<const K: usize>(
-    dot: &[Wide; K],
-    cz: &[Wide; K],
-    size: &[Wide; K],
+    edge: impl Fn(usize) -> (Wide, Wide, Wide),
     live: Mask,
 ) -> (Wide, Wide) {
     let mut wide = Mask::NONE;
-    for d in dot {
-        wide = wide.or(d.lt(Wide::ZERO));
-    }
-    let wide = wide.and(live).any();
     let mut sum = Wide::ZERO;
     let mut bound = Wide::ZERO;
     for i in 0..K {
-        let t = if wide {
-            theta_over_sin(dot[i])
-        } else {
-            theta_over_sin_pos(dot[i])
-        };
-        sum = t.mul_add(cz[i], sum);
-        bound = t.mul_add(size[i], bound);
+        let (d, cz, size) = edge(i);
+        wide = wide.or(d.lt(Wide::ZERO));
+        let t = theta_over_sin_pos(d);
+        sum = t.mul_add(cz, sum);
+        bound = t.mul_add(size, bound);
+    }
+    if wide.and(live).any() {
+        (sum, bound) = (Wide::ZERO, Wide::ZERO);
+        for i in 0..K {
+            let (d, cz, size) = edge(i);
+            let t = theta_over_sin(d);
+            sum = t.mul_add(cz, sum);
+            bound = t.mul_add(size, bound);
+        }
     }
     (sum, bound)
 }
@@ -468,14 +471,12 @@ fn lambert_sum<const N: usize>(
 ) -> (Wide, Wide, [Wide; N], [Wide3; N], [Wide; N]) {
     let len: [Wide; N] = std::array::from_fn(|i| length(&q[i]));
     let inv: [Wide; N] = std::array::from_fn(|i| Wide::ONE / len[i]);
-    let mut dots = [Wide::ZERO; N];
-    let mut cz = [Wide::ZERO; N];
-    let mut size = [Wide::ZERO; N];
-    for i in 0..N {
+    let edge = |i: usize| {
         let j = if i + 1 == N { 0 } else { i + 1 };
-        (dots[i], cz[i], size[i]) = edge_parts(&q[i], &q[j], &e[i], inv[i], inv[j]);
-    }
-    let (sum, bound) = sum_terms(&dots, &cz, &size, live);
+        edge_parts(&q[i], &q[j], &e[i], inv[i], inv[j])
+    };
+    let dots: [Wide; N] = std::array::from_fn(|i| edge(i).0);
+    let (sum, bound) = sum_terms::<N>(edge, live);
     let u: [Wide3; N] =
         std::array::from_fn(|i| [q[i][0] * inv[i], q[i][1] * inv[i], q[i][2] * inv[i]]);
     (sum, bound, len, u, dots)
@@ -509,14 +510,11 @@ fn ltc_sum<const N: usize>(
         // `lambert_sum`'s loop, written out again: shared as one function,
         // both compiled to 1.4 % more instructions and ran ~3 % slower
         // (examples/u_profile, session 5).
-        let mut dots = [Wide::ZERO; N];
-        let mut cz = [Wide::ZERO; N];
-        let mut size = [Wide::ZERO; N];
-        for i in 0..N {
+        let edge = |i: usize| {
             let j = if i + 1 == N { 0 } else { i + 1 };
-            (dots[i], cz[i], size[i]) = edge_parts(&qi[i], &qi[j], &ei[i], inv[i], inv[j]);
-        }
-        sum_terms(&dots, &cz, &size, live)
+            edge_parts(&qi[i], &qi[j], &ei[i], inv[i], inv[j])
+        };
+        sum_terms::<N>(edge, live)
     };
     (sum, bound, gain * norm)
 }
@@ -593,7 +591,7 @@ fn clipped_sum<const N: usize>(
         }
         crossed = crossed.or(leaving);
     }
-    let (sum, bound) = sum_terms(&dots, &cz, &size, live);
+    let (sum, bound) = sum_terms::<N>(|i| (dots[i], cz[i], size[i]), live);
     // The horizon edge (exit = entry = 0 where nothing crossed: adds 0).
     // Its vector is a difference of two rounded crossings: two more ulps
     // of the edge's own scale in its bound.
@@ -601,7 +599,7 @@ fn clipped_sum<const N: usize>(
     let along = [entry[0] - exit[0], entry[1] - exit[1], entry[2] - exit[2]];
     let (d, c, s) = edge_parts(&exit, &entry, &along, ex, en);
     let s = crossed.select(s + Wide::splat(2.0), zero);
-    let (hsum, hbound) = sum_terms(&[d], &[c], &[s], live);
+    let (hsum, hbound) = sum_terms::<1>(|_| (d, c, s), live);
     (sum + hsum, bound + hbound)
 }
 
