@@ -1,34 +1,144 @@
-//! Four lanes, one per pixel, for the batched `U` (`u_batch`) and its
-//! shape correction (`ltc_correction::lobe_factors_lanes`). Elements are
-//! `f64` (`E`; see `u_batch` for why not `f32`).
+//! Lanes, one pixel (or one pixel's node) per lane, for the batched `U`
+//! (`u_batch`) and its shape correction
+//! (`ltc_correction::lobe_factors_lanes`): `Wide`, four `f64` lanes (the
+//! contour sums; see `u_batch` for why not `f32`), and `Wide8`, eight `f32`
+//! lanes (the correction's cubature nodes, two nodes of four pixels per
+//! value: it needs ~1e-3, and eight lanes are one register as four `f64`
+//! are).
 //!
 //! Every operation is a fixed loop over the lanes, inlined always, which
 //! LLVM turns into vector instructions (one AVX2 instruction with the
 //! x86-64-v3 build of `.cargo/config.toml`, two SSE2 ones otherwise): no
-//! intrinsics, all safe Rust. Four lanes, not eight: eight `f64` (two
+//! intrinsics, all safe Rust. Four `f64` lanes, not eight: eight `f64` (two
 //! registers per value) ran 1.26x slower per evaluation (register spills;
-//! criterion `unshadowed_batch/quad`, README). Comparisons give a mask `Mask` of all-ones /
-//! all-zeros bit patterns, and a select picks per lane from that mask (one
-//! blend instruction; written as a bitwise and/or it took three), so lanes
-//! never branch.
+//! criterion `unshadowed_batch/quad`, README). Comparisons give a mask of
+//! all-ones / all-zeros bit patterns, and a select picks per lane from that
+//! mask (one blend instruction; written as a bitwise and/or it took three),
+//! so lanes never branch.
 
-use std::ops::{Add, Div, Mul, Neg, Sub};
+use std::fmt::Debug;
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 /// Pixels per batch.
 pub const LANES: usize = 4;
 
-/// The lane element type.
+/// The element type of the batch's lanes.
 pub type E = f64;
 
-/// One value per lane.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[repr(C, align(32))]
-pub struct Wide(pub [E; LANES]);
+/// A lane element: `f64` or `f32`.
+pub trait Elem:
+    Copy
+    + Default
+    + Debug
+    + PartialEq
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// An unsigned integer of the same width (a mask lane).
+    type Bits: Copy
+        + Default
+        + Debug
+        + Eq
+        + BitAnd<Output = Self::Bits>
+        + BitOr<Output = Self::Bits>
+        + Not<Output = Self::Bits>;
+    const NO_BITS: Self::Bits;
+    const ZERO: Self;
+    const ONE: Self;
+    const INFINITY: Self;
+    fn from_f64(x: f64) -> Self;
+    fn to_f32(self) -> f32;
+    fn mul_add(self, b: Self, c: Self) -> Self;
+    fn sqrt(self) -> Self;
+    fn abs(self) -> Self;
+    /// The integer first guess of `1 / sqrt(self)` (3.5 % off).
+    fn rsqrt_guess(self) -> Self;
+}
 
-/// One lane mask: `!0` (true) or `0` (false) per lane.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+impl Elem for f64 {
+    type Bits = u64;
+    const NO_BITS: u64 = 0;
+    const ZERO: f64 = 0.0;
+    const ONE: f64 = 1.0;
+    const INFINITY: f64 = f64::INFINITY;
+    #[inline(always)]
+    fn from_f64(x: f64) -> f64 {
+        x
+    }
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+    #[inline(always)]
+    fn mul_add(self, b: f64, c: f64) -> f64 {
+        f64::mul_add(self, b, c)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> f64 {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> f64 {
+        f64::abs(self)
+    }
+    #[inline(always)]
+    fn rsqrt_guess(self) -> f64 {
+        f64::from_bits(0x5FE6_EB50_C7B5_37A9u64.wrapping_sub(self.to_bits() >> 1))
+    }
+}
+
+impl Elem for f32 {
+    type Bits = u32;
+    const NO_BITS: u32 = 0;
+    const ZERO: f32 = 0.0;
+    const ONE: f32 = 1.0;
+    const INFINITY: f32 = f32::INFINITY;
+    #[inline(always)]
+    fn from_f64(x: f64) -> f32 {
+        x as f32
+    }
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn mul_add(self, b: f32, c: f32) -> f32 {
+        f32::mul_add(self, b, c)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> f32 {
+        f32::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> f32 {
+        f32::abs(self)
+    }
+    #[inline(always)]
+    fn rsqrt_guess(self) -> f32 {
+        f32::from_bits(0x5F37_5A86u32.wrapping_sub(self.to_bits() >> 1))
+    }
+}
+
+/// One value per lane.
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(32))]
-pub struct Mask(pub [u64; LANES]);
+pub struct Lanes<T: Elem, const L: usize>(pub [T; L]);
+
+/// One lane mask: all ones (true) or zero (false) per lane.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C, align(32))]
+pub struct LaneMask<T: Elem, const L: usize>(pub [T::Bits; L]);
+
+/// Four `f64` lanes: one pixel each.
+pub type Wide = Lanes<f64, LANES>;
+/// `Wide`'s mask.
+pub type Mask = LaneMask<f64, LANES>;
+/// Eight `f32` lanes: two nodes of `LANES` pixels.
+pub type Wide8 = Lanes<f32, 8>;
 
 #[inline(always)]
 fn each<T: Copy + Default, const K: usize>(f: impl Fn(usize) -> T) -> [T; K] {
@@ -40,57 +150,50 @@ fn each<T: Copy + Default, const K: usize>(f: impl Fn(usize) -> T) -> [T; K] {
 }
 
 #[inline(always)]
-fn bit(b: bool) -> u64 {
-    if b { !0 } else { 0 }
+fn bit<T: Elem>(b: bool) -> T::Bits {
+    if b { !T::NO_BITS } else { T::NO_BITS }
 }
 
-impl Wide {
-    pub const ZERO: Wide = Wide([0.0; LANES]);
-    pub const ONE: Wide = Wide([1.0; LANES]);
+impl<T: Elem, const L: usize> Lanes<T, L> {
+    pub const ZERO: Self = Lanes([T::ZERO; L]);
+    pub const ONE: Self = Lanes([T::ONE; L]);
 
+    /// Every lane `x` (rounded to the element type).
     #[inline(always)]
-    pub fn splat(x: impl Into<E>) -> Wide {
-        Wide([x.into(); LANES])
+    pub fn splat(x: impl Into<f64>) -> Self {
+        Lanes([T::from_f64(x.into()); L])
     }
 
     /// Lane `l` from `f(l)`.
     #[inline(always)]
-    pub fn from_fn(f: impl Fn(usize) -> f32) -> Wide {
-        Wide(each(|l| E::from(f(l))))
-    }
-
-    /// Four `f32` lanes (glam's `Vec4`, as the batch's setup computes
-    /// across pixels), exactly.
-    #[inline(always)]
-    pub fn from_vec4(v: glam::Vec4) -> Wide {
-        const { assert!(LANES == 4, "one Vec4 element per lane") };
-        Wide(v.to_array().map(E::from))
+    pub fn from_fn(f: impl Fn(usize) -> f32) -> Self {
+        Lanes(each(|l| T::from_f64(f64::from(f(l)))))
     }
 
     /// The lanes as `f32`.
     #[inline(always)]
-    pub fn to_f32(self) -> [f32; LANES] {
-        each(|l| self.0[l] as f32)
+    pub fn to_f32(self) -> [f32; L] {
+        each(|l| self.0[l].to_f32())
     }
 
     #[inline(always)]
-    pub fn map(self, f: impl Fn(E) -> E) -> Wide {
-        Wide(each(|l| f(self.0[l])))
+    pub fn map(self, f: impl Fn(T) -> T) -> Self {
+        Lanes(each(|l| f(self.0[l])))
     }
 
     #[inline(always)]
-    pub fn zip(self, o: Wide, f: impl Fn(E, E) -> E) -> Wide {
-        Wide(each(|l| f(self.0[l], o.0[l])))
+    pub fn zip(self, o: Self, f: impl Fn(T, T) -> T) -> Self {
+        Lanes(each(|l| f(self.0[l], o.0[l])))
     }
 
     /// `self * b + c`: one fused instruction where the target has FMA;
-    /// a multiply and an add otherwise (`f32::mul_add` would be a library
+    /// a multiply and an add otherwise (`mul_add` would be a library
     /// call per lane there).
     #[inline(always)]
-    pub fn mul_add(self, b: Wide, c: Wide) -> Wide {
+    pub fn mul_add(self, b: Self, c: Self) -> Self {
         #[cfg(target_feature = "fma")]
         {
-            Wide(each(|l| self.0[l].mul_add(b.0[l], c.0[l])))
+            Lanes(each(|l| self.0[l].mul_add(b.0[l], c.0[l])))
         }
         #[cfg(not(target_feature = "fma"))]
         {
@@ -99,176 +202,236 @@ impl Wide {
     }
 
     #[inline(always)]
-    pub fn abs(self) -> Wide {
-        self.map(E::abs)
+    pub fn abs(self) -> Self {
+        self.map(T::abs)
     }
 
     #[inline(always)]
-    pub fn sqrt(self) -> Wide {
-        self.map(E::sqrt)
+    pub fn sqrt(self) -> Self {
+        self.map(T::sqrt)
     }
 
-    /// `1 / sqrt(x)` to 5e-6 relative, for `x` in [1e-300, 1e300]: an
-    /// integer first guess (3.5 % off) and two Newton steps, multiplies and
-    /// adds only. For code that needs ~1e-3, not `f64` (the correction),
-    /// where a square root and a division per use kept the divider busy.
+    /// `1 / sqrt(x)` to 5e-6 relative (`f64`: for `x` in [1e-300, 1e300];
+    /// `f32`: for normal `x`): an integer first guess (3.5 % off) and two
+    /// Newton steps, multiplies and adds only. For code that needs ~1e-3
+    /// (the correction), where a square root and a division per use kept
+    /// the divider busy.
     #[inline(always)]
-    pub fn rsqrt_approx(self) -> Wide {
-        let guess = Wide(each(|l| {
-            E::from_bits(0x5FE6_EB50_C7B5_37A9u64.wrapping_sub(self.0[l].to_bits() >> 1))
-        }));
-        let half = self * Wide::splat(-0.5);
-        let step = |y: Wide| y * (y * y).mul_add(half, Wide::splat(1.5));
+    pub fn rsqrt_approx(self) -> Self {
+        let guess = self.map(T::rsqrt_guess);
+        let half = self * Self::splat(-0.5);
+        let step = |y: Self| y * (y * y).mul_add(half, Self::splat(1.5));
         step(step(guess))
     }
 
     /// Lane-wise minimum (`minps` semantics: written as a compare-select so
     /// no NaN handling is added).
     #[inline(always)]
-    pub fn min(self, o: Wide) -> Wide {
+    pub fn min(self, o: Self) -> Self {
         self.zip(o, |a, b| if a < b { a } else { b })
     }
 
     #[inline(always)]
-    pub fn max(self, o: Wide) -> Wide {
+    pub fn max(self, o: Self) -> Self {
         self.zip(o, |a, b| if a > b { a } else { b })
     }
 
     #[inline(always)]
-    pub fn clamp(self, lo: impl Into<E>, hi: impl Into<E>) -> Wide {
-        self.max(Wide::splat(lo)).min(Wide::splat(hi))
+    pub fn clamp(self, lo: impl Into<f64>, hi: impl Into<f64>) -> Self {
+        self.max(Self::splat(lo)).min(Self::splat(hi))
     }
 
     #[inline(always)]
-    pub fn lt(self, o: Wide) -> Mask {
-        Mask(each(|l| bit(self.0[l] < o.0[l])))
+    pub fn lt(self, o: Self) -> LaneMask<T, L> {
+        LaneMask(each(|l| bit::<T>(self.0[l] < o.0[l])))
     }
 
     #[inline(always)]
-    pub fn le(self, o: Wide) -> Mask {
-        Mask(each(|l| bit(self.0[l] <= o.0[l])))
+    pub fn le(self, o: Self) -> LaneMask<T, L> {
+        LaneMask(each(|l| bit::<T>(self.0[l] <= o.0[l])))
     }
 
     #[inline(always)]
-    pub fn gt(self, o: Wide) -> Mask {
+    pub fn gt(self, o: Self) -> LaneMask<T, L> {
         o.lt(self)
     }
 
     #[inline(always)]
-    pub fn ge(self, o: Wide) -> Mask {
+    pub fn ge(self, o: Self) -> LaneMask<T, L> {
         o.le(self)
     }
 
     /// Finite lanes (not NaN, not infinite).
     #[inline(always)]
-    pub fn finite(self) -> Mask {
-        self.abs().lt(Wide::splat(E::INFINITY))
+    pub fn finite(self) -> LaneMask<T, L> {
+        self.abs().lt(Lanes([T::INFINITY; L]))
     }
 
     /// Sum over the lanes.
     #[inline(always)]
-    pub fn sum(self) -> E {
-        self.0.iter().sum()
+    pub fn sum(self) -> T {
+        self.0.iter().fold(T::ZERO, |a, &b| a + b)
     }
 }
 
-impl Mask {
-    pub const NONE: Mask = Mask([0; LANES]);
-    pub const ALL: Mask = Mask([!0; LANES]);
+impl Wide {
+    /// Four `f32` lanes (glam's `Vec4`, as the batch's setup computes
+    /// across pixels), exactly.
+    #[inline(always)]
+    pub fn from_vec4(v: glam::Vec4) -> Wide {
+        const { assert!(LANES == 4, "one Vec4 element per lane") };
+        Lanes(v.to_array().map(f64::from))
+    }
+}
+
+impl Wide8 {
+    /// `lo` in lanes 0-3 and `hi` in lanes 4-7, each rounded to `f32`.
+    #[inline(always)]
+    pub fn join(lo: Wide, hi: Wide) -> Wide8 {
+        Lanes(each(|l| {
+            if l < LANES {
+                lo.0[l] as f32
+            } else {
+                hi.0[l - LANES] as f32
+            }
+        }))
+    }
+
+    /// The same four `f32` lanes (`glam`'s `Vec4`) in both halves.
+    #[inline(always)]
+    pub fn twice(v: glam::Vec4) -> Wide8 {
+        const { assert!(LANES == 4, "one Vec4 element per lane") };
+        let a = v.to_array();
+        Lanes(each(|l| a[l % LANES]))
+    }
+
+    /// Lanes 0-3 plus lanes 4-7, as `f64`: a per-pixel sum over the two
+    /// nodes a value holds.
+    #[inline(always)]
+    pub fn halves_sum(self) -> Wide {
+        Lanes(each(|l| f64::from(self.0[l] + self.0[l + LANES])))
+    }
+}
+
+impl<T: Elem, const L: usize> LaneMask<T, L> {
+    pub const NONE: Self = LaneMask([T::NO_BITS; L]);
 
     #[inline(always)]
-    pub fn from_fn(f: impl Fn(usize) -> bool) -> Mask {
-        Mask(each(|l| bit(f(l))))
+    pub fn from_fn(f: impl Fn(usize) -> bool) -> Self {
+        LaneMask(each(|l| bit::<T>(f(l))))
     }
 
     /// `a` where the mask is set, `b` elsewhere.
     #[inline(always)]
-    pub fn select(self, a: Wide, b: Wide) -> Wide {
-        Wide(each(|l| if self.0[l] != 0 { a.0[l] } else { b.0[l] }))
+    pub fn select(self, a: Lanes<T, L>, b: Lanes<T, L>) -> Lanes<T, L> {
+        Lanes(each(|l| {
+            if self.0[l] != T::NO_BITS {
+                a.0[l]
+            } else {
+                b.0[l]
+            }
+        }))
     }
 
     #[inline(always)]
-    pub fn and(self, o: Mask) -> Mask {
-        Mask(each(|l| self.0[l] & o.0[l]))
+    pub fn and(self, o: Self) -> Self {
+        LaneMask(each(|l| self.0[l] & o.0[l]))
     }
 
     #[inline(always)]
-    pub fn or(self, o: Mask) -> Mask {
-        Mask(each(|l| self.0[l] | o.0[l]))
+    pub fn or(self, o: Self) -> Self {
+        LaneMask(each(|l| self.0[l] | o.0[l]))
     }
 
     /// `self` and not `o`.
     #[inline(always)]
-    pub fn and_not(self, o: Mask) -> Mask {
-        Mask(each(|l| self.0[l] & !o.0[l]))
+    pub fn and_not(self, o: Self) -> Self {
+        LaneMask(each(|l| self.0[l] & !o.0[l]))
     }
 
     #[inline(always)]
-    pub fn invert(self) -> Mask {
-        Mask(each(|l| !self.0[l]))
+    pub fn invert(self) -> Self {
+        LaneMask(each(|l| !self.0[l]))
     }
 
     #[inline(always)]
     pub fn any(self) -> bool {
-        self.0.iter().fold(0, |a, &b| a | b) != 0
+        self.0.iter().fold(T::NO_BITS, |a, &b| a | b) != T::NO_BITS
     }
 
     #[inline(always)]
     pub fn lane(self, l: usize) -> bool {
-        self.0[l] != 0
+        self.0[l] != T::NO_BITS
     }
 }
 
-impl Add for Wide {
-    type Output = Wide;
+impl<T: Elem, const L: usize> Default for Lanes<T, L> {
+    fn default() -> Self {
+        Self::ZERO
+    }
+}
+
+impl<T: Elem, const L: usize> Default for LaneMask<T, L> {
+    fn default() -> Self {
+        Self::NONE
+    }
+}
+
+impl<T: Elem, const L: usize> Add for Lanes<T, L> {
+    type Output = Self;
     #[inline(always)]
-    fn add(self, o: Wide) -> Wide {
+    fn add(self, o: Self) -> Self {
         self.zip(o, |a, b| a + b)
     }
 }
 
-impl Sub for Wide {
-    type Output = Wide;
+impl<T: Elem, const L: usize> Sub for Lanes<T, L> {
+    type Output = Self;
     #[inline(always)]
-    fn sub(self, o: Wide) -> Wide {
+    fn sub(self, o: Self) -> Self {
         self.zip(o, |a, b| a - b)
     }
 }
 
-impl Mul for Wide {
-    type Output = Wide;
+impl<T: Elem, const L: usize> Mul for Lanes<T, L> {
+    type Output = Self;
     #[inline(always)]
-    fn mul(self, o: Wide) -> Wide {
+    fn mul(self, o: Self) -> Self {
         self.zip(o, |a, b| a * b)
     }
 }
 
-impl Div for Wide {
-    type Output = Wide;
+impl<T: Elem, const L: usize> Div for Lanes<T, L> {
+    type Output = Self;
     #[inline(always)]
-    fn div(self, o: Wide) -> Wide {
+    fn div(self, o: Self) -> Self {
         self.zip(o, |a, b| a / b)
     }
 }
 
-impl Neg for Wide {
-    type Output = Wide;
+impl<T: Elem, const L: usize> Neg for Lanes<T, L> {
+    type Output = Self;
     #[inline(always)]
-    fn neg(self) -> Wide {
+    fn neg(self) -> Self {
         self.map(|a| -a)
     }
 }
 
 /// A vector of lanes: `[x, y, z]`.
-pub type Wide3 = [Wide; 3];
+pub type Vec3Lanes<T, const L: usize> = [Lanes<T, L>; 3];
+/// A vector of `Wide` lanes.
+pub type Wide3 = Vec3Lanes<f64, LANES>;
 
 #[inline(always)]
-pub fn dot(a: &Wide3, b: &Wide3) -> Wide {
+pub fn dot<T: Elem, const L: usize>(a: &Vec3Lanes<T, L>, b: &Vec3Lanes<T, L>) -> Lanes<T, L> {
     a[0].mul_add(b[0], a[1].mul_add(b[1], a[2] * b[2]))
 }
 
 #[inline(always)]
-pub fn cross(a: &Wide3, b: &Wide3) -> Wide3 {
+pub fn cross<T: Elem, const L: usize>(
+    a: &Vec3Lanes<T, L>,
+    b: &Vec3Lanes<T, L>,
+) -> Vec3Lanes<T, L> {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -277,12 +440,15 @@ pub fn cross(a: &Wide3, b: &Wide3) -> Wide3 {
 }
 
 #[inline(always)]
-pub fn add3(a: &Wide3, b: &Wide3) -> Wide3 {
+pub fn add3<T: Elem, const L: usize>(
+    a: &Vec3Lanes<T, L>,
+    b: &Vec3Lanes<T, L>,
+) -> Vec3Lanes<T, L> {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 #[inline(always)]
-pub fn scale3(a: &Wide3, s: Wide) -> Wide3 {
+pub fn scale3<T: Elem, const L: usize>(a: &Vec3Lanes<T, L>, s: Lanes<T, L>) -> Vec3Lanes<T, L> {
     [a[0] * s, a[1] * s, a[2] * s]
 }
 
@@ -302,6 +468,13 @@ mod tests {
             }
         }
         assert!(worst < 5e-6, "{worst}");
+        let mut worst: f64 = 0.0;
+        for k in 0..=7000 {
+            let x = 10f64.powf(-37.0 + 0.01 * k as f64) as f32;
+            let got = Wide8::splat(x).rsqrt_approx().0[5];
+            worst = worst.max((f64::from(got) * f64::from(x).sqrt() - 1.0).abs());
+        }
+        assert!(worst < 5e-6, "f32: {worst}");
     }
 
     #[test]

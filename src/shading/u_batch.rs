@@ -377,7 +377,7 @@ static THETA_SIN_WIDE: [Wide; 11] = {
     let mut w = [Wide::ZERO; 11];
     let mut i = 0;
     while i < 11 {
-        w[i] = Wide([p[i]; super::lanes::LANES]);
+        w[i] = super::lanes::Lanes([p[i]; super::lanes::LANES]);
         i += 1;
     }
     w
