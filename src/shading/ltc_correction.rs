@@ -28,7 +28,7 @@
 //! its divisions merged (a unit test checks it against `brdf::spec_local`),
 //! and a rational `atan` for the solid angles (max error 0.005 rad).
 
-use super::lanes::{Wide, Wide3, add3, cross, dot, scale3};
+use super::lanes::{Vec3Lanes, Wide, Wide3, Wide8, add3, cross, dot, scale3};
 use super::ltc::{CellLanes, LtcCell};
 use super::polygon::MAX_VERTICES;
 use glam::{DVec3, Vec3, Vec4};
@@ -166,19 +166,22 @@ fn one_pixel<const N: usize>(
 /// `lobe_factors` builds them for one pixel.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CorrectionLanes {
-    ma: [Wide; 4],
-    kda: Wide,
-    kca: Wide,
+    /// Per node (`f32`, each pixel's constant in both halves of `Wide8`:
+    /// two nodes at a time).
+    ma: [Wide8; 4],
+    kda: Wide8,
+    kca: Wide8,
+    mb: [Wide8; 4],
+    kdb: Wide8,
+    kcb: Wide8,
+    wox: Wide8,
+    woz: Wide8,
+    a2: Wide8,
+    lo2: Wide8,
+    k: Wide8,
+    /// Per pixel, for the factors.
     maga: Wide,
-    mb: [Wide; 4],
-    kdb: Wide,
-    kcb: Wide,
     magb: Wide,
-    wox: Wide,
-    woz: Wide,
-    a2: Wide,
-    lo2: Wide,
-    k: Wide,
 }
 
 impl CorrectionLanes {
@@ -202,19 +205,19 @@ impl CorrectionLanes {
         let lo2 = Vec4::ONE + Vec4::splat(2.0) * lambda;
         let k = Vec4::splat(2.0 * PI) * woz.abs().max(Vec4::splat(MIN_COS));
         CorrectionLanes {
-            ma: ma.map(Wide::from_vec4),
-            kda: Wide::from_vec4(kda),
-            kca: Wide::from_vec4(kca),
+            ma: ma.map(Wide8::twice),
+            kda: Wide8::twice(kda),
+            kca: Wide8::twice(kca),
+            mb: mb.map(Wide8::twice),
+            kdb: Wide8::twice(kdb),
+            kcb: Wide8::twice(kcb),
+            wox: Wide8::twice(wox),
+            woz: Wide8::twice(woz),
+            a2: Wide8::twice(a2),
+            lo2: Wide8::twice(lo2),
+            k: Wide8::twice(k),
             maga: Wide::from_vec4(cells.mag()),
-            mb: mb.map(Wide::from_vec4),
-            kdb: Wide::from_vec4(kdb),
-            kcb: Wide::from_vec4(kcb),
             magb: Wide::from_vec4(cells.fres()),
-            wox: Wide::from_vec4(wox),
-            woz: Wide::from_vec4(woz),
-            a2: Wide::from_vec4(a2),
-            lo2: Wide::from_vec4(lo2),
-            k: Wide::from_vec4(k),
         }
     }
 }
@@ -233,51 +236,51 @@ fn lobe_model(m: [Vec4; 4], mag: Vec4, mix: Vec4, inv_hmass: Vec4) -> ([Vec4; 4]
 
 /// `LobeModel::value` per lane.
 #[inline(always)]
-fn model_lanes(m: &[Wide; 4], kd: Wide, kc: Wide, w: &Wide3) -> Wide {
+fn model_lanes(m: &[Wide8; 4], kd: Wide8, kc: Wide8, w: &Vec3Lanes<f32, 8>) -> Wide8 {
     let ox = m[0].mul_add(w[0], m[1] * w[2]);
     let oz = m[2].mul_add(w[0], m[3] * w[2]);
     let l2 = ox.mul_add(ox, w[1].mul_add(w[1], oz * oz));
     kc.mul_add(
         w[2],
-        kd * oz.max(Wide::ZERO) / (l2 * l2).max(Wide::splat(1e-30)),
+        kd * oz.max(Wide8::ZERO) / (l2 * l2).max(Wide8::splat(1e-30)),
     )
 }
 
 /// `ExactLobes::eval` per lane.
 #[inline(always)]
-fn exact_lanes(k: &CorrectionLanes, w: &Wide3) -> (Wide, Wide) {
+fn exact_lanes(k: &CorrectionLanes, w: &Vec3Lanes<f32, 8>) -> (Wide8, Wide8) {
     let h = [w[0] + k.wox, w[1], w[2] + k.woz];
-    let l2 = dot(&h, &h).max(Wide::splat(1e-30));
+    let l2 = dot(&h, &h).max(Wide8::splat(1e-30));
     let hxy = h[0].mul_add(h[0], h[1] * h[1]);
     let q = (k.a2 * h[2]).mul_add(h[2], hxy);
-    let c = w[2].max(Wide::splat(MIN_COS));
+    let c = w[2].max(Wide8::splat(MIN_COS));
     let wxy = w[0].mul_add(w[0], w[1] * w[1]);
     // Square roots as `x / sqrt(x)` with the approximate `1 / sqrt`: the
     // factor needs ~1e-3, and the divider was the bottleneck here.
     let t2 = c.mul_add(c, k.a2 * wxy);
     let t = t2 * t2.rsqrt_approx();
     let num = k.a2 * l2 * l2 * w[2];
-    let den = (k.k * q * q * c.mul_add(k.lo2, t)).max(Wide::splat(1e-30));
+    let den = (k.k * q * q * c.mul_add(k.lo2, t)).max(Wide8::splat(1e-30));
     let a = num / den;
     let wo_w = k.wox.mul_add(w[0], k.woz * w[2]);
-    let cos_oh = (wo_w + Wide::ONE) * l2.rsqrt_approx();
-    let m = Wide::ONE - cos_oh.clamp(0.0, 1.0);
+    let cos_oh = (wo_w + Wide8::ONE) * l2.rsqrt_approx();
+    let m = Wide8::ONE - cos_oh.clamp(0.0, 1.0);
     let m2 = m * m;
     (a, a * m2 * m2 * m)
 }
 
 /// `atan2_pos` per lane (the same octant reduction, as selects).
 #[inline(always)]
-fn atan2_pos_lanes(y: Wide, x: Wide) -> Wide {
+fn atan2_pos_lanes(y: Wide8, x: Wide8) -> Wide8 {
     let steep = x.abs().lt(y);
     let num = steep.select(-x, y);
     let den = steep.select(y, x);
     let base = steep.select(
-        Wide::splat(FRAC_PI_2),
-        x.lt(Wide::ZERO).select(Wide::splat(PI), Wide::ZERO),
+        Wide8::splat(FRAC_PI_2),
+        x.lt(Wide8::ZERO).select(Wide8::splat(PI), Wide8::ZERO),
     );
-    let d = den.mul_add(den, Wide::splat(0.28086) * num * num);
-    base + num * den / d.max(Wide::splat(1e-30))
+    let d = den.mul_add(den, Wide8::splat(0.28086) * num * num);
+    base + num * den / d.max(Wide8::splat(1e-30))
 }
 
 /// `lobe_factors` for `LANES` pixels at once, across pixels: lane `l` is one
@@ -286,6 +289,14 @@ fn atan2_pos_lanes(y: Wide, x: Wide) -> Wide {
 /// at the shading point) and the cosines `dots[i] = u[i] . u[i + 1]`, which
 /// the Lambert contour sum has computed already. Same nodes, weights and
 /// fades as `lobe_factors`; `tests/u_batch.rs` checks the two agree.
+///
+/// What cancels for a small light is computed in `f64`, per pixel: the
+/// fan's centre, each triangle's triple product and Van Oosterom-Strackee
+/// denominator, and each node's (unnormalised) direction. The nodes
+/// themselves (solid angle, exact lobes, models) run in `f32`, two nodes
+/// per `Wide8` (each pixel's node `i` in lanes 0-3, node `i + 1` in lanes
+/// 4-7): half the instructions of four `f64` lanes per node, and ~1e-6
+/// relative, where the factor needs ~1e-3.
 #[inline(always)]
 pub fn lobe_factors_lanes<const N: usize>(
     u: &[Wide3; N],
@@ -300,26 +311,57 @@ pub fn lobe_factors_lanes<const N: usize>(
     }
     let c = scale3(&c, dot(&c, &c).max(Wide::splat(1e-30)).rsqrt_approx());
     let cu: [Wide; N] = std::array::from_fn(|i| dot(&c, &u[i]));
-    let mut sums = [Wide::ZERO; 4];
-    for i in 0..N {
-        let j = if i + 1 == N { 0 } else { i + 1 };
-        let (a, b) = (&u[i], &u[j]);
-        let num = dot(&c, &cross(a, b)).abs();
-        let den = Wide::ONE + cu[i] + dots[i] + cu[j];
-        let omega = Wide::splat(2.0) * atan2_pos_lanes(num, den);
-        let m = add3(&add3(&c, a), b);
-        let w = scale3(&m, dot(&m, &m).max(Wide::splat(1e-30)).rsqrt_approx());
-        let wt = w[2].gt(Wide::ZERO).select(omega, Wide::ZERO);
+    let mut sums = [Wide8::ZERO; 4];
+    for pair in 0..N.div_ceil(2) {
+        let (n0, d0, m0) = fan_node(u, dots, &c, &cu, 2 * pair);
+        let (n1, d1, m1) = fan_node(u, dots, &c, &cu, 2 * pair + 1);
+        let (num, den) = (Wide8::join(n0, n1), Wide8::join(d0, d1));
+        let m = [
+            Wide8::join(m0[0], m1[0]),
+            Wide8::join(m0[1], m1[1]),
+            Wide8::join(m0[2], m1[2]),
+        ];
+        // `black_box` here and on the sums below only shapes the code: LLVM
+        // otherwise grows its vectors from the four-lane ends (the `f64`
+        // inputs, the per-pixel sums) and ran the whole node in two 4-wide
+        // halves (178 against 296 instructions per evaluation, u_profile).
+        let (num, den, m) = std::hint::black_box((num, den, m));
+        let omega = Wide8::splat(2.0) * atan2_pos_lanes(num, den);
+        let w = scale3(&m, dot(&m, &m).max(Wide8::splat(1e-30)).rsqrt_approx());
+        let wt = w[2].gt(Wide8::ZERO).select(omega, Wide8::ZERO);
         let (ea, eb) = exact_lanes(k, &w);
         sums[0] = wt.mul_add(ea, sums[0]);
         sums[1] = wt.mul_add(eb, sums[1]);
         sums[2] = wt.mul_add(model_lanes(&k.ma, k.kda, k.kca, &w), sums[2]);
         sums[3] = wt.mul_add(model_lanes(&k.mb, k.kdb, k.kcb, &w), sums[3]);
     }
+    let sums = std::hint::black_box(sums);
+    let [qfa, qfb, qga, qgb] = sums.map(Wide8::halves_sum);
     (
-        factor_lanes(sums[0], sums[2], share_a, k.maga),
-        factor_lanes(sums[1], sums[3], share_b, k.magb),
+        factor_lanes(qfa, qga, share_a, k.maga),
+        factor_lanes(qfb, qgb, share_b, k.magb),
     )
+}
+
+/// Triangle `i` of the fan about `c` (`cu[i] = c . u[i]`): its triple
+/// product, its Van Oosterom-Strackee denominator and its (unnormalised)
+/// centroid direction. A zero node past the last (weight 0, finite lobes).
+#[inline(always)]
+fn fan_node<const N: usize>(
+    u: &[Wide3; N],
+    dots: &[Wide; N],
+    c: &Wide3,
+    cu: &[Wide; N],
+    i: usize,
+) -> (Wide, Wide, Wide3) {
+    if i >= N {
+        return (Wide::ZERO, Wide::ONE, [Wide::ZERO; 3]);
+    }
+    let j = if i + 1 == N { 0 } else { i + 1 };
+    let (a, b) = (&u[i], &u[j]);
+    let num = dot(c, &cross(a, b)).abs();
+    let den = Wide::ONE + cu[i] + dots[i] + cu[j];
+    (num, den, add3(&add3(c, a), b))
 }
 
 /// `factor` per lane.
@@ -369,7 +411,7 @@ mod tests {
                         [Vec4::splat(wo.x), Vec4::splat(wo.z)],
                         Vec4::splat(alpha),
                     );
-                    let wl = [Wide::splat(w.x), Wide::splat(w.y), Wide::splat(w.z)];
+                    let wl = [Wide8::splat(w.x), Wide8::splat(w.y), Wide8::splat(w.z)];
                     let (la, lb) = exact_lanes(&k, &wl);
                     assert!(
                         (la.0[0] as f32 - a).abs() <= 1e-4 * a + 1e-9,
@@ -392,12 +434,20 @@ mod tests {
         }
     }
 
-    /// Every constant, in a fixed order.
-    fn constants(k: &CorrectionLanes) -> Vec<Wide> {
-        let mut v = k.ma.to_vec();
-        v.extend(k.mb);
-        v.extend([k.kda, k.kca, k.maga, k.kdb, k.kcb, k.magb]);
-        v.extend([k.wox, k.woz, k.a2, k.lo2, k.k]);
+    /// Every constant of lane `l`, in a fixed order (the node constants
+    /// must be the same in both halves).
+    fn constants(k: &CorrectionLanes, l: usize) -> Vec<f64> {
+        let mut nodes = k.ma.to_vec();
+        nodes.extend(k.mb);
+        nodes.extend([k.kda, k.kca, k.kdb, k.kcb, k.wox, k.woz, k.a2, k.lo2, k.k]);
+        let mut v: Vec<f64> = nodes
+            .iter()
+            .map(|w| {
+                assert_eq!(w.0[l].to_bits(), w.0[l + 4].to_bits(), "halves differ");
+                f64::from(w.0[l])
+            })
+            .collect();
+        v.extend([k.maga.0[l], k.magb.0[l]]);
         v
     }
 
@@ -421,8 +471,9 @@ mod tests {
                 [Vec4::splat(view[l].x), Vec4::splat(view[l].z)],
                 Vec4::splat(alpha[l]),
             );
-            for (i, (a, b)) in constants(&lanes).iter().zip(constants(&one)).enumerate() {
-                assert_eq!(a.0[l].to_bits(), b.0[0].to_bits(), "constant {i}, lane {l}");
+            let (a, b) = (constants(&lanes, l), constants(&one, 0));
+            for (i, (a, b)) in a.iter().zip(&b).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "constant {i}, lane {l}");
             }
         }
     }
@@ -432,8 +483,8 @@ mod tests {
         for k in 0..=2000 {
             let t = PI * k as f32 / 2000.0;
             let (y, x) = (t.sin(), t.cos());
-            let got = atan2_pos_lanes(Wide::splat(y), Wide::splat(x)).0[0];
-            assert!((got - t as f64).abs() < 0.005, "{t}");
+            let got = atan2_pos_lanes(Wide8::splat(y), Wide8::splat(x)).0[6];
+            assert!((got - t).abs() < 0.005, "{t}");
         }
     }
 

@@ -425,22 +425,51 @@ fn edge_parts(a: &Wide3, b: &Wide3, e: &Wide3, ia: Wide, ib: Wide) -> (Wide, Wid
     (d, cz, size)
 }
 
+/// A polygon's `K` edges as a contour sum reads them: edge `i` as (cosine,
+/// cz, size) (`edge_parts`). A trait with always-inlined methods rather
+/// than a closure: LLVM stopped inlining the closures once the function
+/// around them grew, and each call then cost a spill of everything live.
+trait Edges<const K: usize> {
+    fn edge(&self, i: usize) -> (Wide, Wide, Wide);
+}
+
+/// Unclipped polygon: vertices `q`, exact edge vectors `e`, inverse vertex
+/// lengths `inv`.
+struct Unclipped<'a, const K: usize> {
+    q: &'a [Wide3; K],
+    e: &'a [Wide3; K],
+    inv: &'a [Wide; K],
+}
+
+impl<const K: usize> Edges<K> for Unclipped<'_, K> {
+    #[inline(always)]
+    fn edge(&self, i: usize) -> (Wide, Wide, Wide) {
+        let j = if i + 1 == K { 0 } else { i + 1 };
+        edge_parts(&self.q[i], &self.q[j], &self.e[i], self.inv[i], self.inv[j])
+    }
+}
+
+/// Edges already made: (cosines, cz, sizes).
+impl<const K: usize> Edges<K> for ([Wide; K], [Wide; K], [Wide; K]) {
+    #[inline(always)]
+    fn edge(&self, i: usize) -> (Wide, Wide, Wide) {
+        (self.0[i], self.1[i], self.2[i])
+    }
+}
+
 /// `sum theta/sin(theta) cz` and `sum theta/sin(theta) size` over the `K`
-/// edges that `edge(i)` gives as (cosine, cz, size), each edge's terms
-/// added as soon as they are made (no arrays of them live at once). The
-/// `pi / sin` branch of theta/sin is needed only when some lane that counts
-/// (`live`) has an edge wider than 90 degrees (rare: very wide polygons);
-/// then the edges are made again and summed with it.
+/// edges, each edge's terms added as soon as they are made (no arrays of
+/// them live at once). The `pi / sin` branch of theta/sin is needed only
+/// when some lane that counts (`live`) has an edge wider than 90 degrees
+/// (rare: very wide polygons); then the edges are made again and summed
+/// with it.
 #[inline(always)]
-fn sum_terms<const K: usize>(
-    edge: impl Fn(usize) -> (Wide, Wide, Wide),
-    live: Mask,
-) -> (Wide, Wide) {
+fn sum_terms<const K: usize>(edges: &impl Edges<K>, live: Mask) -> (Wide, Wide) {
     let mut wide = Mask::NONE;
     let mut sum = Wide::ZERO;
     let mut bound = Wide::ZERO;
     for i in 0..K {
-        let (d, cz, size) = edge(i);
+        let (d, cz, size) = edges.edge(i);
         wide = wide.or(d.lt(Wide::ZERO));
         let t = theta_over_sin_pos(d);
         sum = t.mul_add(cz, sum);
@@ -449,7 +478,7 @@ fn sum_terms<const K: usize>(
     if wide.and(live).any() {
         (sum, bound) = (Wide::ZERO, Wide::ZERO);
         for i in 0..K {
-            let (d, cz, size) = edge(i);
+            let (d, cz, size) = edges.edge(i);
             let t = theta_over_sin(d);
             sum = t.mul_add(cz, sum);
             bound = t.mul_add(size, bound);
@@ -471,12 +500,9 @@ fn lambert_sum<const N: usize>(
 ) -> (Wide, Wide, [Wide; N], [Wide3; N], [Wide; N]) {
     let len: [Wide; N] = std::array::from_fn(|i| length(&q[i]));
     let inv: [Wide; N] = std::array::from_fn(|i| Wide::ONE / len[i]);
-    let edge = |i: usize| {
-        let j = if i + 1 == N { 0 } else { i + 1 };
-        edge_parts(&q[i], &q[j], &e[i], inv[i], inv[j])
-    };
-    let dots: [Wide; N] = std::array::from_fn(|i| edge(i).0);
-    let (sum, bound) = sum_terms::<N>(edge, live);
+    let edges = Unclipped { q, e, inv: &inv };
+    let dots: [Wide; N] = std::array::from_fn(|i| edges.edge(i).0);
+    let (sum, bound) = sum_terms(&edges, live);
     let u: [Wide3; N] =
         std::array::from_fn(|i| [q[i][0] * inv[i], q[i][1] * inv[i], q[i][2] * inv[i]]);
     (sum, bound, len, u, dots)
@@ -510,11 +536,12 @@ fn ltc_sum<const N: usize>(
         // `lambert_sum`'s loop, written out again: shared as one function,
         // both compiled to 1.4 % more instructions and ran ~3 % slower
         // (examples/u_profile, session 5).
-        let edge = |i: usize| {
-            let j = if i + 1 == N { 0 } else { i + 1 };
-            edge_parts(&qi[i], &qi[j], &ei[i], inv[i], inv[j])
+        let edges = Unclipped {
+            q: &qi,
+            e: &ei,
+            inv: &inv,
         };
-        sum_terms::<N>(edge, live)
+        sum_terms(&edges, live)
     };
     (sum, bound, gain * norm)
 }
@@ -591,7 +618,7 @@ fn clipped_sum<const N: usize>(
         }
         crossed = crossed.or(leaving);
     }
-    let (sum, bound) = sum_terms::<N>(|i| (dots[i], cz[i], size[i]), live);
+    let (sum, bound) = sum_terms(&(dots, cz, size), live);
     // The horizon edge (exit = entry = 0 where nothing crossed: adds 0).
     // Its vector is a difference of two rounded crossings: two more ulps
     // of the edge's own scale in its bound.
@@ -599,7 +626,7 @@ fn clipped_sum<const N: usize>(
     let along = [entry[0] - exit[0], entry[1] - exit[1], entry[2] - exit[2]];
     let (d, c, s) = edge_parts(&exit, &entry, &along, ex, en);
     let s = crossed.select(s + Wide::splat(2.0), zero);
-    let (hsum, hbound) = sum_terms::<1>(|_| (d, c, s), live);
+    let (hsum, hbound) = sum_terms(&([d], [c], [s]), live);
     (sum + hsum, bound + hbound)
 }
 
