@@ -1,10 +1,14 @@
 //! A fixed workload of the batched `U` for profilers and instruction
 //! counts: the 4096 random points and light 0 of `cargo bench --bench ltc`
-//! (`unshadowed_batch/quad`), `REPS` times over (default 20).
+//! (`unshadowed_batch/quad`), `REPS` times over (default 20); with a second
+//! argument `passN`, the 1280x720 G-buffer and first N lights of
+//! `u_pass 1280x720/batched, N lights` instead, once per rep.
 //!
-//! `cargo build --release --example u_profile && valgrind --tool=callgrind
-//! target/release/examples/u_profile 20` counts instructions (81,920
-//! evaluations; deterministic, unlike time on a shared machine); without
+//! Instructions (deterministic, unlike time on a shared machine) under
+//! callgrind, which cannot run the AVX-512 build of `.cargo/config.toml`:
+//! `RUSTFLAGS="-C target-cpu=x86-64-v3" CARGO_TARGET_DIR=target/v3 cargo
+//! build --release --example u_profile && valgrind --tool=callgrind
+//! target/v3/release/examples/u_profile 20` (81,920 evaluations). Without
 //! valgrind it prints its own ns per evaluation (a hint: take the minimum
 //! of several runs).
 

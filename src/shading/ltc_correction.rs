@@ -414,11 +414,11 @@ mod tests {
                     let wl = [Wide8::splat(w.x), Wide8::splat(w.y), Wide8::splat(w.z)];
                     let (la, lb) = exact_lanes(&k, &wl);
                     assert!(
-                        (la.0[0] as f32 - a).abs() <= 1e-4 * a + 1e-9,
+                        (la.0[0] - a).abs() <= 1e-4 * a + 1e-9,
                         "lanes A {la:?} vs {a}"
                     );
                     assert!(
-                        (lb.0[0] as f32 - b).abs() <= 1e-3 * b + 1e-9,
+                        (lb.0[0] - b).abs() <= 1e-3 * b + 1e-9,
                         "lanes B {lb:?} vs {b}"
                     );
                     assert!(
