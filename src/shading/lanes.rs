@@ -503,4 +503,20 @@ mod tests {
         assert!(!f.lane(1) && !f.lane(2) && f.lane(0) && f.lane(3));
         assert!(m.any() && !Mask::NONE.any());
     }
+
+    #[test]
+    fn eight_lanes_hold_two_nodes_of_four_pixels() {
+        let lo = Wide::from_fn(|l| l as f32);
+        let hi = Wide::from_fn(|l| 10.0 + l as f32);
+        let j = Wide8::join(lo, hi);
+        assert_eq!(j.0, [0.0, 1.0, 2.0, 3.0, 10.0, 11.0, 12.0, 13.0]);
+        assert_eq!(j.halves_sum(), Wide::from_fn(|l| 10.0 + 2.0 * l as f32));
+        let t = Wide8::twice(glam::Vec4::new(5.0, 6.0, 7.0, 8.0));
+        assert_eq!(t.0, [5.0, 6.0, 7.0, 8.0, 5.0, 6.0, 7.0, 8.0]);
+        let m = j.gt(Wide8::splat(2.5));
+        assert_eq!(
+            m.select(j, Wide8::ZERO).0,
+            [0.0, 0.0, 0.0, 3.0, 10.0, 11.0, 12.0, 13.0]
+        );
+    }
 }

@@ -533,9 +533,6 @@ fn ltc_sum<const N: usize>(
     let (sum, bound) = if clips.and(live).any() {
         clipped_sum(&qi, &ei, &len, &inv, live)
     } else {
-        // `lambert_sum`'s loop, written out again: shared as one function,
-        // both compiled to 1.4 % more instructions and ran ~3 % slower
-        // (examples/u_profile, session 5).
         let edges = Unclipped {
             q: &qi,
             e: &ei,
