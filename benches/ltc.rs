@@ -16,9 +16,7 @@ mod u_inputs;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::Vec3;
-use penumbra::shading::u_batch::{
-    BatchLight, LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch,
-};
+use penumbra::shading::u_batch::{BatchLight, LaneCounts};
 use penumbra::shading::{ShadingLight, SurfacePoint, unshadowed, unshadowed_prepared};
 use std::hint::black_box;
 
@@ -56,25 +54,9 @@ fn bench(c: &mut Criterion) {
     );
 
     let batch_lights: Vec<BatchLight> = ls.iter().map(BatchLight::new).collect();
-    // The batched U over the same inputs, 8 at a time.
+    // The batched U over the same inputs, `LANES` at a time.
     let u_batch = |points: &[SurfacePoint], n: usize, counts: &mut LaneCounts| {
-        let mut acc = Vec3::ZERO;
-        let mut out = LaneLobes::default();
-        for group in points.chunks(LANES) {
-            let lanes: [Option<SurfacePoint>; LANES] =
-                std::array::from_fn(|l| group.get(l).copied());
-            let batch = PixelBatch::new(black_box(&lanes));
-            for bl in &batch_lights[..n] {
-                let c = lobes_batch(&batch, bl, &mut out);
-                counts.fast += c.fast;
-                counts.scalar += c.scalar;
-                for l in 0..group.len() {
-                    let (d, s) = out.lane(l);
-                    acc += d + s;
-                }
-            }
-        }
-        acc
+        u_inputs::batched_pass(points, &batch_lights[..n], counts)
     };
     let mut counts = LaneCounts::default();
     c.bench_function(

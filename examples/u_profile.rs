@@ -16,11 +16,7 @@
 mod u_inputs;
 
 use glam::Vec3;
-use penumbra::shading::SurfacePoint;
-use penumbra::shading::u_batch::{
-    BatchLight, LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch,
-};
-use std::hint::black_box;
+use penumbra::shading::u_batch::{BatchLight, LaneCounts};
 
 fn main() {
     let reps: usize = match std::env::args().nth(1).map(|s| s.parse()) {
@@ -54,23 +50,9 @@ fn main() {
         .collect();
     let mut sum = Vec3::ZERO;
     let mut counts = LaneCounts::default();
-    let mut out = LaneLobes::default();
     let start = std::time::Instant::now();
     for _ in 0..reps {
-        for group in inputs.chunks(LANES) {
-            let lanes: [Option<SurfacePoint>; LANES] =
-                std::array::from_fn(|l| group.get(l).copied());
-            let batch = PixelBatch::new(black_box(&lanes));
-            for light in &lights {
-                let c = lobes_batch(&batch, light, &mut out);
-                counts.fast += c.fast;
-                counts.scalar += c.scalar;
-                for l in 0..group.len() {
-                    let (d, s) = out.lane(l);
-                    sum += d + s;
-                }
-            }
-        }
+        sum += u_inputs::batched_pass(&inputs, &lights, &mut counts);
     }
     let evals = reps * inputs.len() * lights.len();
     println!(

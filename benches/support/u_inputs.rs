@@ -4,6 +4,10 @@
 use glam::{Vec3, vec3};
 use penumbra::scene::Light;
 use penumbra::shading::SurfacePoint;
+use penumbra::shading::u_batch::{
+    BatchLight, LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch,
+};
+use std::hint::black_box;
 
 /// Small deterministic generator (xorshift) so inputs are reproducible.
 pub struct Rng(pub u64);
@@ -106,4 +110,30 @@ pub fn random_points() -> Vec<SurfacePoint> {
             }
         })
         .collect()
+}
+
+/// The batched `U` of `lights` over `points`, `LANES` pixels at a time, each
+/// batch set up once for all its lights (as the renderer runs it): the sum
+/// of every lane's `U`; the lanes' paths are added to `counts`.
+pub fn batched_pass(
+    points: &[SurfacePoint],
+    lights: &[BatchLight],
+    counts: &mut LaneCounts,
+) -> Vec3 {
+    let mut acc = Vec3::ZERO;
+    let mut out = LaneLobes::default();
+    for group in points.chunks(LANES) {
+        let lanes: [Option<SurfacePoint>; LANES] = std::array::from_fn(|l| group.get(l).copied());
+        let batch = PixelBatch::new(black_box(&lanes));
+        for light in lights {
+            let c = lobes_batch(&batch, light, &mut out);
+            counts.fast += c.fast;
+            counts.scalar += c.scalar;
+            for l in 0..group.len() {
+                let (d, s) = out.lane(l);
+                acc += d + s;
+            }
+        }
+    }
+    acc
 }
