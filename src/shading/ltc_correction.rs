@@ -23,8 +23,9 @@
 //! degenerate input.
 //!
 //! Cost: this runs for every pixel and light, so it is written for speed
-//! rather than reuse: `f32` (the factor needs ~1e-3, not the `f64` the edge
-//! sums need), the exact lobe evaluated with the view's terms hoisted and
+//! rather than reuse: `f32` nodes, two to a register (the factor needs
+//! ~1e-3, not the `f64` the edge sums need; what cancels for a small light
+//! stays `f64`), the exact lobe evaluated with the view's terms hoisted and
 //! its divisions merged (a unit test checks it against `brdf::spec_local`),
 //! and a rational `atan` for the solid angles (max error 0.005 rad).
 
@@ -111,7 +112,7 @@ impl ExactLobes {
 ///
 /// One pixel through `lobe_factors_lanes` (in lane 0; the batched U runs
 /// `LANES`), so the scalar and batched paths compute the same factor with
-/// the same `f64` arithmetic.
+/// the same arithmetic (`f64` where a small light cancels, `f32` nodes).
 pub fn lobe_factors(
     poly: &[DVec3],
     cell: &LtcCell,

@@ -369,9 +369,10 @@ fn inv_len(v: &Wide3) -> Wide {
 /// 2.1e-9), carried into each lane's error bound.
 const POLY_ERR_F64: E = 3e-9;
 
-/// `polygon::THETA_SIN_POLY` in every lane, kept in memory as whole vectors
-/// so that the multiply-adds read them directly (a splat per use cost a
-/// broadcast instruction each).
+/// `polygon::THETA_SIN_POLY` in every lane, as whole vectors. (Meant to let
+/// the multiply-adds read them from memory; session 6's instruction profile
+/// shows LLVM still broadcasts each one before use, and copies of them as
+/// run-time data traded those broadcasts for more register moves.)
 static THETA_SIN_WIDE: [Wide; 11] = {
     let p = super::polygon::THETA_SIN_POLY;
     let mut w = [Wide::ZERO; 11];
