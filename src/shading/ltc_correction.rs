@@ -158,7 +158,15 @@ fn one_pixel<const N: usize>(
     let dots: [Wide; N] = std::array::from_fn(|i| {
         dot(&u[i], &u[if i + 1 == N { 0 } else { i + 1 }]).clamp(-1.0, 1.0)
     });
-    let (a, b) = lobe_factors_lanes(&u, &dots, k, Wide::splat(share_a), Wide::splat(share_b));
+    let centre = u.iter().fold([Wide::ZERO; 3], |c, v| add3(&c, v));
+    let (a, b) = lobe_factors_lanes(
+        &u,
+        &dots,
+        &centre,
+        k,
+        Wide::splat(share_a),
+        Wide::splat(share_b),
+    );
     (a.0[0] as f32, b.0[0] as f32)
 }
 
@@ -285,10 +293,13 @@ fn atan2_pos_lanes(y: Wide8, x: Wide8) -> Wide8 {
 }
 
 /// `lobe_factors` for `LANES` pixels at once, across pixels: lane `l` is one
-/// pixel's light polygon (never clipped: the batch sends clipped lanes to
-/// the scalar path), given by its `N` unit vertices `u` (zero for a vertex
-/// at the shading point) and the cosines `dots[i] = u[i] . u[i + 1]`, which
-/// the Lambert contour sum has computed already. Same nodes, weights and
+/// pixel's light polygon (clipped to the horizon), given by its `N` unit
+/// vertices `u` (zero for a vertex at the shading point), the cosines
+/// `dots[i] = u[i] . u[i + 1]`, which the Lambert contour sum has computed
+/// already, and `centre`, the sum of the unit vertices. A lane's polygon
+/// may repeat a vertex in consecutive slots (the batch pads clipped
+/// polygons to one vertex count): its fan triangle is degenerate and adds
+/// exactly 0, and `centre` counts the vertex once. Same nodes, weights and
 /// fades as `lobe_factors`; `tests/u_batch.rs` checks the two agree.
 ///
 /// What cancels for a small light is computed in `f64`, per pixel: the
@@ -302,15 +313,15 @@ fn atan2_pos_lanes(y: Wide8, x: Wide8) -> Wide8 {
 pub fn lobe_factors_lanes<const N: usize>(
     u: &[Wide3; N],
     dots: &[Wide; N],
+    centre: &Wide3,
     k: &CorrectionLanes,
     share_a: Wide,
     share_b: Wide,
 ) -> (Wide, Wide) {
-    let mut c = [Wide::ZERO; 3];
-    for v in u {
-        c = add3(&c, v);
-    }
-    let c = scale3(&c, dot(&c, &c).max(Wide::splat(1e-30)).rsqrt_approx());
+    let c = scale3(
+        centre,
+        dot(centre, centre).max(Wide::splat(1e-30)).rsqrt_approx(),
+    );
     let cu: [Wide; N] = std::array::from_fn(|i| dot(&c, &u[i]));
     let mut sums = [Wide8::ZERO; 4];
     for pair in 0..N.div_ceil(2) {
