@@ -203,11 +203,10 @@ impl LtcTable {
         let b = self.cell(i0 + 1, j0).to_array();
         let c = self.cell(i0, j0 + 1).to_array();
         let d = self.cell(i0 + 1, j0 + 1).to_array();
+        let [w00, w10, w01, w11] = bilinear_weights(fx, fy);
         let mut r = [0.0f32; FIELDS];
         for k in 0..FIELDS {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bot = c[k] + (d[k] - c[k]) * fx;
-            r[k] = top + (bot - top) * fy;
+            r[k] = d[k].mul_add(w11, c[k].mul_add(w01, b[k].mul_add(w10, a[k] * w00)));
         }
         LtcCell::from_array(r)
     }
@@ -225,6 +224,17 @@ fn cell_coords(size: usize, roughness: f32, cos_view: f32) -> (usize, usize, f32
     let y = (1.0 - cos_view.clamp(0.0, 1.0)).sqrt() * n;
     let (i0, j0) = ((x as usize).min(size - 2), (y as usize).min(size - 2));
     (i0, j0, x - i0 as f32, y - j0 as f32)
+}
+
+/// The weights of the cells (i0, j0), (i0 + 1, j0), (i0, j0 + 1) and
+/// (i0 + 1, j0 + 1) at `(fx, fy)` inside the cell. A blend is then one
+/// product and three multiply-adds per value (against three lerps, nine
+/// operations); every lookup blends with them in this order, so the
+/// scalar and lane lookups agree bit for bit.
+#[inline(always)]
+fn bilinear_weights(fx: f32, fy: f32) -> [f32; 4] {
+    let (gx, gy) = (1.0 - fx, 1.0 - fy);
+    [gx * gy, fx * gy, gx * fy, fx * fy]
 }
 
 /// The embedded table, parsed once.
@@ -281,7 +291,7 @@ impl PackedLtc {
     #[inline]
     pub fn lookup_packed(&self, roughness: f32, cos_view: f32) -> [Vec4; 4] {
         let (i0, j0, fx, fy) = cell_coords(self.size, roughness, cos_view);
-        self.blend(j0 * self.size + i0, fx, fy)
+        self.blend(j0 * self.size + i0, bilinear_weights(fx, fy))
     }
 }
 
@@ -298,28 +308,30 @@ impl PackedLtc {
         let last = IVec4::splat(self.size as i32 - 2);
         let (i0, j0) = (x.as_ivec4().min(last), y.as_ivec4().min(last));
         let (fx, fy) = (x - i0.as_vec4(), y - j0.as_vec4());
+        // `bilinear_weights` across the lanes.
+        let (gx, gy) = (Vec4::ONE - fx, Vec4::ONE - fy);
+        let w = [gx * gy, fx * gy, gx * fy, fx * fy];
         let mut out = [[Vec4::ZERO; 4]; 4];
         for (l, out) in out.iter_mut().enumerate() {
             let k = j0[l] as usize * self.size + i0[l] as usize;
-            *out = self.blend(k, fx[l], fy[l]);
+            *out = self.blend(k, w.map(|w| w[l]));
         }
         out
     }
 
-    /// The bilinear blend of cells `k`, `k + 1` and the two above them.
+    /// The bilinear blend of cells `k`, `k + 1` and the two above them,
+    /// with their weights `w` (`bilinear_weights`).
     #[inline(always)]
-    fn blend(&self, k: usize, fx: f32, fy: f32) -> [Vec4; 4] {
+    fn blend(&self, k: usize, w: [f32; 4]) -> [Vec4; 4] {
         let (a, b) = (&self.cells[k].0, &self.cells[k + 1].0);
         let (c, d) = (
             &self.cells[k + self.size].0,
             &self.cells[k + self.size + 1].0,
         );
-        let (fx, fy) = (Vec4::splat(fx), Vec4::splat(fy));
+        let [w00, w10, w01, w11] = w.map(Vec4::splat);
         let mut out = [Vec4::ZERO; 4];
         for (k, out) in out.iter_mut().enumerate() {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bot = c[k] + (d[k] - c[k]) * fx;
-            *out = top + (bot - top) * fy;
+            *out = d[k].mul_add(w11, c[k].mul_add(w01, b[k].mul_add(w10, a[k] * w00)));
         }
         out
     }
