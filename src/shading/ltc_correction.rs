@@ -333,11 +333,7 @@ pub fn lobe_factors_lanes<const N: usize>(
             Wide8::join(m0[1], m1[1]),
             Wide8::join(m0[2], m1[2]),
         ];
-        // `black_box` here and on the sums below only shapes the code: LLVM
-        // otherwise grows its vectors from the four-lane ends (the `f64`
-        // inputs, the per-pixel sums) and ran the whole node in two 4-wide
-        // halves (178 against 296 instructions per evaluation, u_profile).
-        let (num, den, m) = std::hint::black_box((num, den, m));
+        let (num, den, m) = shaped((num, den, m));
         let omega = Wide8::splat(2.0) * atan2_pos_lanes(num, den);
         let w = scale3(&m, dot(&m, &m).max(Wide8::splat(1e-30)).rsqrt_approx());
         let wt = w[2].gt(Wide8::ZERO).select(omega, Wide8::ZERO);
@@ -347,7 +343,7 @@ pub fn lobe_factors_lanes<const N: usize>(
         sums[2] = wt.mul_add(model_lanes(&k.ma, k.kda, k.kca, &w), sums[2]);
         sums[3] = wt.mul_add(model_lanes(&k.mb, k.kdb, k.kcb, &w), sums[3]);
     }
-    let sums = std::hint::black_box(sums);
+    let sums = shaped(sums);
     let [qfa, qfb, qga, qgb] = sums.map(Wide8::halves_sum);
     (
         factor_lanes(qfa, qga, share_a, k.maga),
@@ -358,6 +354,27 @@ pub fn lobe_factors_lanes<const N: usize>(
 /// Triangle `i` of the fan about `c` (`cu[i] = c . u[i]`): its triple
 /// product, its Van Oosterom-Strackee denominator and its (unnormalised)
 /// centroid direction. A zero node past the last (weight 0, finite lobes).
+/// Only shapes the code of the node loop, on the 8-lane inputs and the
+/// sums. Without AVX-512, `std::hint::black_box`: LLVM otherwise grows its
+/// vectors from the four-lane ends (the `f64` inputs, the per-pixel sums)
+/// and runs the whole node in two 4-wide halves (296 against 178
+/// instructions per evaluation, `u_profile` under callgrind, session 6).
+/// With AVX-512 (the shipped `x86-64-v4` build), whose 32 registers hold
+/// either shape, the values pass as they are: the stores and reloads that
+/// `black_box` forces cost more there than the halves (`u_profile 40`,
+/// min of 7 alternated runs: 78.8 against 76.5 ns per evaluation, session 7).
+#[inline(always)]
+fn shaped<T>(x: T) -> T {
+    #[cfg(target_feature = "avx512f")]
+    {
+        x
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        std::hint::black_box(x)
+    }
+}
+
 #[inline(always)]
 fn fan_node<const N: usize>(
     u: &[Wide3; N],
