@@ -42,11 +42,11 @@ lint: deps
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --release --all-targets -- -D warnings
 
-# Criterion micro-benchmarks (numbers only: its HTML plots need a system font
-# it cannot always find), then speed against error on the shipped scenes
+# Criterion micro-benchmarks (numbers only: the benches turn criterion's HTML
+# plots off, which panicked for want of a font), then speed against error on the shipped scenes
 # (references are cached under target/penumbra-cache; the first run renders them).
 bench: build
-	$(CARGO) bench -- --noplot
+	$(CARGO) bench
 	$(BIN) bench --json target/bench.json --plot docs/speed-vs-error.png
 
 # The smoke run: seconds, small frames, a cheap reference.
