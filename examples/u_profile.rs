@@ -2,7 +2,8 @@
 //! counts: the 4096 random points and light 0 of `cargo bench --bench ltc`
 //! (`unshadowed_batch/quad`), `REPS` times over (default 20); with a second
 //! argument `passN`, the 1280x720 G-buffer and first N lights of
-//! `u_pass 1280x720/batched, N lights` instead, once per rep.
+//! `u_pass 1280x720/batched, N lights` instead, once per rep (`pass0`: the
+//! per-pixel setup alone, no light; its time is per pixel).
 //!
 //! Instructions (deterministic, unlike time on a shared machine) under
 //! callgrind, which cannot run the AVX-512 build of `.cargo/config.toml`:
@@ -32,9 +33,9 @@ fn main() {
     let pass: Option<usize> = match std::env::args().nth(2).as_deref() {
         None => None,
         Some(s) => match s.strip_prefix("pass").map(str::parse) {
-            Some(Ok(n)) if (1..=4).contains(&n) => Some(n),
+            Some(Ok(n)) if (0..=4).contains(&n) => Some(n),
             _ => {
-                eprintln!("u_profile: the second argument is passN, N in 1..=4");
+                eprintln!("u_profile: the second argument is passN, N in 0..=4");
                 std::process::exit(2);
             }
         },
@@ -54,7 +55,8 @@ fn main() {
     for _ in 0..reps {
         sum += u_inputs::batched_pass(&inputs, &lights, &mut counts);
     }
-    let evals = reps * inputs.len() * lights.len();
+    // With no light (`pass0`), per pixel.
+    let evals = reps * inputs.len() * lights.len().max(1);
     println!(
         "{evals} evaluations, {:.1} ns each; lanes on the scalar path {}; sum of U {sum}",
         start.elapsed().as_nanos() as f64 / evals.max(1) as f64,
