@@ -232,6 +232,49 @@ fn ordinary_lights_take_the_fast_path() {
     assert!(counts.scalar * 100 <= counts.fast, "{counts:?}");
 }
 
+#[test]
+fn lights_straddling_the_horizons_of_a_floor_take_the_fast_path() {
+    // A wall light whose bottom edge is 0.3 above a floor whose shading
+    // normals wobble by up to ~0.3 rad: it straddles the horizon of a large
+    // share of the points (a quarter here). Those lanes are clipped in the
+    // batch; before session 7 each went to the scalar path (about four
+    // vector lanes' time apiece).
+    let mut rng = Rng(5);
+    let light = polygon_light(
+        vec3(0.0, 2.0, 1.0),
+        0.7,
+        4,
+        Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
+        false,
+    );
+    let bl = BatchLight::new(&light);
+    let mut counts = LaneCounts::default();
+    let mut straddling = 0;
+    for _ in 0..200 {
+        let points: [Option<SurfacePoint>; LANES] = std::array::from_fn(|_| {
+            let p = vec3(rng.range(-2.0, 2.0), rng.range(-1.0, 1.5), 0.0);
+            let n = (Vec3::Z + 0.3 * rng.unit()).normalize();
+            let low = light.vertices.iter().any(|v| n.dot(*v - p) < 0.0);
+            let high = light.vertices.iter().any(|v| n.dot(*v - p) > 0.0);
+            straddling += usize::from(low && high);
+            let eye = vec3(rng.range(-3.0, 3.0), -4.0, rng.range(0.5, 3.0));
+            Some(SurfacePoint {
+                p,
+                n,
+                wo: (eye - p).normalize(),
+                diffuse: Vec3::splat(0.5),
+                specular: Vec3::splat(0.04),
+                roughness: rng.range(0.05, 1.0),
+            })
+        });
+        let c = lobes_batch(&PixelBatch::new(&points), &bl, &mut LaneLobes::default());
+        counts.fast += c.fast;
+        counts.scalar += c.scalar;
+    }
+    assert!(straddling >= 150, "only {straddling} straddling lanes");
+    assert!(counts.scalar * 100 <= counts.fast, "{counts:?}");
+}
+
 /// A 1x1 quad 1 above the origin tilted by 0.3 rad, two-sided, and a point
 /// at the origin facing up: the light straddles the point's horizon.
 fn straddling_case() -> (Light, SurfacePoint) {
