@@ -206,30 +206,41 @@ fn ordinary_lights_take_the_fast_path() {
         Quat::from_rotation_x(std::f32::consts::PI),
         false,
     );
-    let bl = BatchLight::new(&light);
+    let counts = lane_counts(&light, 100, || {
+        let p = vec3(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), 0.0);
+        let eye = vec3(
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+            rng.range(0.5, 3.0),
+        );
+        SurfacePoint {
+            p,
+            n: Vec3::Z,
+            wo: (eye - p).normalize(),
+            diffuse: Vec3::splat(0.5),
+            specular: Vec3::splat(0.04),
+            roughness: rng.range(0.05, 1.0),
+        }
+    });
+    assert!(counts.scalar * 100 <= counts.fast, "{counts:?}");
+}
+
+/// How the lanes of `batches` full batches of points made by `point` went
+/// under `light`.
+fn lane_counts(
+    light: &Light,
+    batches: usize,
+    mut point: impl FnMut() -> SurfacePoint,
+) -> LaneCounts {
+    let bl = BatchLight::new(light);
     let mut counts = LaneCounts::default();
-    for _ in 0..100 {
-        let points: [Option<SurfacePoint>; LANES] = std::array::from_fn(|_| {
-            let p = vec3(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), 0.0);
-            let eye = vec3(
-                rng.range(-3.0, 3.0),
-                rng.range(-3.0, 3.0),
-                rng.range(0.5, 3.0),
-            );
-            Some(SurfacePoint {
-                p,
-                n: Vec3::Z,
-                wo: (eye - p).normalize(),
-                diffuse: Vec3::splat(0.5),
-                specular: Vec3::splat(0.04),
-                roughness: rng.range(0.05, 1.0),
-            })
-        });
+    for _ in 0..batches {
+        let points: [Option<SurfacePoint>; LANES] = std::array::from_fn(|_| Some(point()));
         let c = lobes_batch(&PixelBatch::new(&points), &bl, &mut LaneLobes::default());
         counts.fast += c.fast;
         counts.scalar += c.scalar;
     }
-    assert!(counts.scalar * 100 <= counts.fast, "{counts:?}");
+    counts
 }
 
 #[test]
@@ -247,30 +258,23 @@ fn lights_straddling_the_horizons_of_a_floor_take_the_fast_path() {
         Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
         false,
     );
-    let bl = BatchLight::new(&light);
-    let mut counts = LaneCounts::default();
     let mut straddling = 0;
-    for _ in 0..200 {
-        let points: [Option<SurfacePoint>; LANES] = std::array::from_fn(|_| {
-            let p = vec3(rng.range(-2.0, 2.0), rng.range(-1.0, 1.5), 0.0);
-            let n = (Vec3::Z + 0.3 * rng.unit()).normalize();
-            let low = light.vertices.iter().any(|v| n.dot(*v - p) < 0.0);
-            let high = light.vertices.iter().any(|v| n.dot(*v - p) > 0.0);
-            straddling += usize::from(low && high);
-            let eye = vec3(rng.range(-3.0, 3.0), -4.0, rng.range(0.5, 3.0));
-            Some(SurfacePoint {
-                p,
-                n,
-                wo: (eye - p).normalize(),
-                diffuse: Vec3::splat(0.5),
-                specular: Vec3::splat(0.04),
-                roughness: rng.range(0.05, 1.0),
-            })
-        });
-        let c = lobes_batch(&PixelBatch::new(&points), &bl, &mut LaneLobes::default());
-        counts.fast += c.fast;
-        counts.scalar += c.scalar;
-    }
+    let counts = lane_counts(&light, 200, || {
+        let p = vec3(rng.range(-2.0, 2.0), rng.range(-1.0, 1.5), 0.0);
+        let n = (Vec3::Z + 0.3 * rng.unit()).normalize();
+        let low = light.vertices.iter().any(|v| n.dot(*v - p) < 0.0);
+        let high = light.vertices.iter().any(|v| n.dot(*v - p) > 0.0);
+        straddling += usize::from(low && high);
+        let eye = vec3(rng.range(-3.0, 3.0), -4.0, rng.range(0.5, 3.0));
+        SurfacePoint {
+            p,
+            n,
+            wo: (eye - p).normalize(),
+            diffuse: Vec3::splat(0.5),
+            specular: Vec3::splat(0.04),
+            roughness: rng.range(0.05, 1.0),
+        }
+    });
     assert!(straddling >= 150, "only {straddling} straddling lanes");
     assert!(counts.scalar * 100 <= counts.fast, "{counts:?}");
 }
