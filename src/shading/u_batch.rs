@@ -861,10 +861,9 @@ fn shade_clipped<const N: usize, const K: usize>(
 
 /// The lobes of the lanes of `fast` into `out`, from their local polygon
 /// (`q`, `e`: above the horizon in those lanes; for a clipped polygon,
-/// which slots are real and the slack of each lane's rounding bound,
-/// `Clipped`). Returns
-/// the lanes whose rounding bound exceeds `REL_TOL` (or whose value is not
-/// finite): the caller sends them to the scalar path.
+/// which slots are real and the slack of each lane's rounding bound, as in
+/// `Clipped`). Returns the lanes whose rounding bound exceeds `REL_TOL` (or
+/// whose value is not finite): the caller sends them to the scalar path.
 #[inline(always)]
 fn shade<const K: usize>(
     b: &PixelBatch,
