@@ -353,25 +353,8 @@ fn vertices_on_the_horizon_match_the_scalar_path() {
     // an edge on it with the rest below (nothing left).
     let quad = |zs: [f32; 4]| {
         let xy = [(-0.5, 0.5), (0.5, 0.5), (0.5, 1.5), (-0.5, 1.5)];
-        let vertices: Vec<Vec3> = (0..4).map(|k| vec3(xy[k].0, xy[k].1, zs[k])).collect();
-        let normal = (vertices[1] - vertices[0])
-            .cross(vertices[2] - vertices[0])
-            .normalize();
-        Light {
-            vertices,
-            radiance: Vec3::ONE,
-            two_sided: true,
-            normal,
-            area: 1.0,
-            quad: None,
-        }
+        two_sided_light((0..4).map(|k| vec3(xy[k].0, xy[k].1, zs[k])).collect())
     };
-    let points = [
-        lane(Vec3::ZERO, Vec3::Z, vec3(0.2, -0.4, 1.0), 0.3),
-        lane(Vec3::ZERO, Vec3::Z, vec3(-0.5, 0.1, 0.3), 0.7),
-        lane(Vec3::ZERO, Vec3::Z, vec3(0.0, 0.0, 1.0), 0.05),
-        lane(Vec3::ZERO, Vec3::Z, vec3(0.9, 0.9, 0.1), 1.0),
-    ];
     for zs in [
         [0.0, 0.5, 0.5, 0.5],
         [0.0, 0.0, 0.5, 0.5],
@@ -380,8 +363,74 @@ fn vertices_on_the_horizon_match_the_scalar_path() {
         [0.0, -0.5, 0.0, 0.5],
         [0.0, 0.0, -0.5, -0.5],
     ] {
-        check_lanes(&quad(zs), &points);
+        check_lanes(&quad(zs), &FLAT_LANES.map(flat_lane));
     }
+}
+
+#[test]
+fn near_degenerate_lights_across_the_horizon_match_the_scalar_path() {
+    // Clips of polygons that barely have an area, or barely cross: a sliver
+    // quad 1e-5 wide standing across the horizon, a triangle 1e-6 from
+    // collinear, and quads with vertices 1e-12 below or above it. (As
+    // measured, the first two leave the batch on their rounding bound, the
+    // other two are clipped in it: both ways must agree with the scalar
+    // path.)
+    let lights = [
+        vec![
+            vec3(0.0, 1.0, -0.5),
+            vec3(1e-5, 1.0, -0.5),
+            vec3(1e-5, 1.0, 0.5),
+            vec3(0.0, 1.0, 0.5),
+        ],
+        vec![
+            vec3(-1.0, 1.0, -0.5),
+            vec3(1.0, 1.0, 0.5),
+            vec3(0.0, 1.0, 1e-6),
+        ],
+        vec![
+            vec3(-0.5, 0.5, -1e-12),
+            vec3(0.5, 0.5, 0.5),
+            vec3(0.5, 1.5, 0.5),
+            vec3(-0.5, 1.5, 0.5),
+        ],
+        vec![
+            vec3(-0.5, 0.5, -1e-12),
+            vec3(0.5, 0.5, 1e-12),
+            vec3(0.5, 1.5, 0.5),
+            vec3(-0.5, 1.5, -1e-12),
+        ],
+    ];
+    for vertices in lights {
+        check_lanes(&two_sided_light(vertices), &FLAT_LANES.map(flat_lane));
+    }
+}
+
+/// A two-sided light of radiance 1 through `vertices` (its normal from the
+/// first three).
+fn two_sided_light(vertices: Vec<Vec3>) -> Light {
+    let normal = (vertices[1] - vertices[0])
+        .cross(vertices[2] - vertices[0])
+        .normalize();
+    Light {
+        vertices,
+        radiance: Vec3::ONE,
+        two_sided: true,
+        normal,
+        area: 1.0,
+        quad: None,
+    }
+}
+
+/// Views and roughness of four points at the origin with normal +Z.
+const FLAT_LANES: [(Vec3, f32); 4] = [
+    (vec3(0.2, -0.4, 1.0), 0.3),
+    (vec3(-0.5, 0.1, 0.3), 0.7),
+    (vec3(0.0, 0.0, 1.0), 0.05),
+    (vec3(0.9, 0.9, 0.1), 1.0),
+];
+
+fn flat_lane((view, roughness): (Vec3, f32)) -> SurfacePoint {
+    lane(Vec3::ZERO, Vec3::Z, view, roughness)
 }
 
 /// Hard cases for one light, `LANES` to a batch, against the scalar path
