@@ -108,12 +108,12 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-// No HTML plots: criterion draws their text with the plotters build this
-// crate configures (`ab_glyph`, fonts registered by `report::plot` only),
-// and panicked for want of a font. The figures are in the text output.
+#[path = "support/quiet.rs"]
+mod quiet;
+
 criterion_group! {
     name = benches;
-    config = Criterion::default().without_plots();
+    config = quiet::criterion();
     targets = bench
 }
 criterion_main!(benches);
