@@ -4,7 +4,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use penumbra::embree::{self, Device};
 use penumbra::output::{self, Aov};
-use penumbra::render::{Frame, Mode, RenderSettings, World};
+use penumbra::render::{Frame, Mode, RenderSettings, VisibilityRate, World};
 use penumbra::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -62,6 +62,12 @@ struct SceneArgs {
     /// jittered, so a one-frame render is the same either way.
     #[arg(long, default_value = "on")]
     taa: Switch,
+    /// Which pixels draw visibility samples each frame in denoised ratio
+    /// and soft-shadow: full (every pixel) | quarter (one of each 2x2,
+    /// rotating; denoised at quad resolution and upsampled along the
+    /// G-buffer's edges). `U` is evaluated at every pixel either way.
+    #[arg(long, default_value = "quarter")]
+    visibility_rate: VisibilityRate,
     /// Exposure in stops for PNG and the window.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
@@ -143,6 +149,10 @@ struct BenchArgs {
     /// Print (and with --plot, draw) a report saved by --json instead of measuring.
     #[arg(long, value_name = "FILE.json")]
     from_json: Option<PathBuf>,
+    /// Measure only these configurations, by the labels of the table
+    /// (comma-separated, e.g. "ratio+dn,ratio+dn 1/4").
+    #[arg(long, value_delimiter = ',')]
+    only: Vec<String>,
     /// Where references are cached.
     #[arg(long, default_value = "target/penumbra-cache")]
     cache: PathBuf,
@@ -248,6 +258,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         seed: c.seed,
         denoise: c.denoise == Switch::On,
         taa: c.taa == Switch::On,
+        visibility: c.visibility_rate,
         ..RenderSettings::default()
     };
     let mut frame = Frame::new(w, h);
@@ -324,6 +335,7 @@ fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {
         seed: a.common.seed,
         denoise: a.common.denoise == Switch::On,
         taa: a.common.taa == Switch::On,
+        visibility: a.common.visibility_rate,
         exposure: a.common.exposure,
         overlay: a.overlay == Switch::On,
         frames: a.frames,
@@ -343,6 +355,7 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
     opts.height = a.height.unwrap_or(opts.height);
     opts.frames = a.frames.unwrap_or(opts.frames);
     opts.reference_spp = a.ref_spp.unwrap_or(opts.reference_spp);
+    opts.only = a.only;
     penumbra::scene::check_resolution(opts.width, opts.height).map_err(anyhow::Error::msg)?;
     if opts.frames == 0 || opts.reference_spp == 0 {
         bail!("--frames and --ref-spp must be at least 1");

@@ -1,32 +1,35 @@
-//! One frame: trace the G-buffer, evaluate U and the stochastic estimates
-//! per band of rows over rayon, then composite. Frame state that outlives a
-//! frame (previous camera, reference accumulation) lives here too.
+//! One frame, run as the stages its [`FramePlan`] names: the band pass
+//! (primary rays, `U`, samples and shadow rays per band of rows over
+//! rayon), the denoiser, upsampling of reduced-rate visibility, the
+//! composite and the temporal resolve. State that outlives a frame
+//! (histories, previous camera, reference accumulation) lives here too.
 
-use super::estimate::{Estimator, analytic_u_band, draw_samples, ratio};
-use super::gbuffer::{GSample, PixelKind};
-use super::mode::Mode;
+use super::estimate::{Estimator, analytic_u_band, draw_samples, ratio, surface_point};
+use super::gbuffer::GSample;
+use super::guides::{GuideMut, Guides};
+use super::plan::{Composite, FramePlan, ResolveInput, VisibilityRate};
 use super::primary::{PACKET_H, PixelOffset, trace_rows};
+use super::quads::{self, FullRes, QUAD_ORDER, Quads};
 use super::shadow::{PacketWidth, ShadowBatch};
 use super::world::World;
-use crate::denoise::{
-    CameraMotion, DenoiseSettings, Denoiser, GuideBuffers, Lobe, Resolve, ResolveSettings,
-};
+use crate::denoise::{CameraMotion, DenoiseSettings, Denoiser, Resolve, ResolveSettings};
 use crate::sampling::sequence::frame_jitter;
 use crate::scene::{Camera, CameraFrame, Light};
-use crate::shading::brdf::alpha_from_roughness;
+use crate::shading::unshadowed_prepared;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 /// Rows per parallel work item: two packet rows, so a band's G-buffer stays
-/// in cache between the passes that read it.
+/// in cache between the passes that read it. Even, so no quad straddles two
+/// bands.
 pub const BAND_ROWS: u32 = 2 * PACKET_H;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderSettings {
-    pub mode: Mode,
-    /// Light samples per pixel per frame (`reference`: per call).
+    pub mode: super::mode::Mode,
+    /// Light samples per sampled pixel per frame (`reference`: per call).
     pub spp: u32,
     pub seed: u32,
     /// How shadow rays are handed to Embree.
@@ -37,23 +40,27 @@ pub struct RenderSettings {
     /// of the colour (every mode but `reference`, which jitters per sample).
     /// Frame 0 is unjittered, so a one-frame render is the same either way.
     pub taa: bool,
+    /// Which pixels draw visibility samples each frame (denoised ratio and
+    /// soft-shadow; every other plan samples every pixel).
+    pub visibility: VisibilityRate,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
-            mode: Mode::Ratio,
+            mode: super::mode::Mode::Ratio,
             spp: 1,
             seed: 0,
             packet: PacketWidth::Sixteen,
             denoise: true,
             taa: true,
+            visibility: VisibilityRate::default(),
         }
     }
 }
 
 /// What a band pass computes: where its camera rays go and which samples
-/// it draws. The same steps serve every mode, the reference included.
+/// it draws. The same steps serve every plan, the reference included.
 #[derive(Clone, Copy)]
 struct BandJob<'a, 'd> {
     world: &'a World<'d>,
@@ -70,17 +77,14 @@ struct BandJob<'a, 'd> {
 }
 
 impl BandJob<'_, '_> {
-    /// Primary rays, `U` per light, then samples and their shadow rays for
-    /// the band starting at row `y0`. Returns the time it finished, for the
-    /// next stage's clock.
-    fn run(
+    /// Primary rays and `U` per light for the band starting at row `y0`.
+    /// Returns the time it finished, for the next stage's clock.
+    fn primary_and_u(
         &self,
         y0: u32,
         scratch: &mut BandScratch,
         gbuf: &mut [GSample],
         u: &mut [Vec3],
-        un: &mut [Vec3],
-        sn: &mut [Vec3],
     ) -> Instant {
         let (world, clock) = (self.world, self.clock);
         let t = Instant::now();
@@ -96,35 +100,68 @@ impl BandJob<'_, '_> {
             u,
             &mut scratch.spec_share,
         );
-        let t = PhaseClock::add(&clock.u, t);
+        PhaseClock::add(&clock.u, t)
+    }
+
+    /// Samples and shadow rays of the band's pixels `pixels` (indices into
+    /// the band, whose first row is `y0`); sample `m` adds to `un[m]` and,
+    /// when its shadow ray is unoccluded, to `sn[m]`.
+    #[allow(clippy::too_many_arguments)]
+    fn samples(
+        &self,
+        y0: u32,
+        scratch: &mut BandScratch,
+        gbuf: &[GSample],
+        u: &[Vec3],
+        pixels: impl Iterator<Item = usize>,
+        un: &mut [Vec3],
+        sn: &mut [Vec3],
+        since: Instant,
+    ) -> Instant {
         un.fill(Vec3::ZERO);
         sn.fill(Vec3::ZERO);
         let Some(est) = self.estimator else {
-            return t;
+            return since;
         };
+        let world = self.world;
+        let lights = world.scene.lights.len();
         scratch.batch.clear();
         let width = self.cam.width;
-        for (k, g) in gbuf.iter().enumerate() {
+        for (m, k) in pixels.enumerate() {
             draw_samples(
                 world,
-                g,
+                &gbuf[k],
                 &scratch.per_light[k * lights..(k + 1) * lights],
                 u[k],
                 est,
                 (y0 * width + k as u32, self.first_sample, self.seed),
                 self.spp,
-                k as u32,
-                &mut un[k],
+                m as u32,
+                &mut un[m],
                 &mut scratch.batch,
             );
         }
         scratch
             .batch
             .trace(&world.rt, self.packet, |r| sn[r.slot as usize] += r.weight);
-        clock
+        self.clock
             .shadow_rays
             .fetch_add(scratch.batch.rays.len() as u64, Ordering::Relaxed);
-        PhaseClock::add(&clock.shadow, t)
+        PhaseClock::add(&self.clock.shadow, since)
+    }
+
+    /// Primary rays, `U`, then samples at every pixel of the band.
+    fn run(
+        &self,
+        y0: u32,
+        scratch: &mut BandScratch,
+        gbuf: &mut [GSample],
+        u: &mut [Vec3],
+        un: &mut [Vec3],
+        sn: &mut [Vec3],
+    ) -> Instant {
+        let t = self.primary_and_u(y0, scratch, gbuf, u);
+        self.samples(y0, scratch, gbuf, u, 0..gbuf.len(), un, sn, t)
     }
 }
 
@@ -136,6 +173,8 @@ struct BandScratch {
     /// Share of the specular lobe in each pixel's `U` (luminance).
     spec_share: Vec<f32>,
     batch: ShadowBatch,
+    /// Band pixels sampled this frame (reduced rate).
+    sampled: Vec<usize>,
 }
 
 /// Seconds spent in each stage of a frame. Stages run fused per band, so
@@ -151,6 +190,9 @@ pub struct PhaseTimes {
     pub denoise: f64,
     /// Wall time of the temporal resolve of the colour (after the composite).
     pub resolve: f64,
+    /// Wall time of bringing reduced-rate visibility to every pixel,
+    /// the samples of the pixels no quad vouched for included.
+    pub upsample: f64,
     pub wall: f64,
     /// Shadow rays traced this frame.
     pub shadow_rays: u64,
@@ -173,6 +215,7 @@ impl PhaseClock {
     }
 }
 
+
 /// The buffers of a frame, one entry per pixel, row-major, row 0 at the top.
 pub struct Frame {
     pub width: u32,
@@ -180,14 +223,22 @@ pub struct Frame {
     pub gbuf: Vec<GSample>,
     /// Analytic unshadowed light.
     pub u: Vec<Vec3>,
-    /// Stochastic estimates of `U` and `S` from the same samples.
+    /// Stochastic estimates of `U` and `S` from the same samples (denoised,
+    /// and at a reduced visibility rate brought to every pixel, when the
+    /// plan says so).
     pub un: Vec<Vec3>,
     pub sn: Vec<Vec3>,
     /// The frame's linear radiance.
     pub color: Vec<Vec3>,
-    /// The denoiser's guides, in the layout it reads (filled by the band pass).
+    /// The denoiser's and the resolve's guides (filled by the band pass).
     guide: Guides,
+    /// Quad-resolution visibility (allocated on the first reduced-rate frame).
+    quads: Option<Quads>,
+    /// Surface pixels no quad vouched for this frame (see `quads`).
+    orphans: Vec<u32>,
     denoiser: Denoiser,
+    /// The rate the denoiser's history was built at.
+    history_rate: Option<VisibilityRate>,
     resolve: Resolve,
     /// What the resolve averages this frame (see `resolve_colour`).
     resolve_in: Vec<Vec3>,
@@ -219,8 +270,11 @@ impl Frame {
             un: vec![Vec3::ZERO; n],
             sn: vec![Vec3::ZERO; n],
             color: vec![Vec3::ZERO; n],
-            guide: Guides::new(n),
+            guide: Guides::new(width, height),
+            quads: None,
+            orphans: Vec::new(),
             denoiser: Denoiser::new(width, height),
+            history_rate: None,
             resolve: Resolve::new(width, height),
             resolve_in: vec![Vec3::ZERO; n],
             accum: Vec::new(),
@@ -235,6 +289,12 @@ impl Frame {
 
     pub fn pixel_count(&self) -> usize {
         self.width as usize * self.height as usize
+    }
+
+    /// Surface pixels that drew their own samples in the last reduced-rate
+    /// frame because no quad around them sampled their surface.
+    pub fn orphan_count(&self) -> usize {
+        self.orphans.len()
     }
 
     /// Forgets history: the next frame starts accumulation afresh.
@@ -256,12 +316,13 @@ impl Frame {
         settings: &RenderSettings,
     ) -> PhaseTimes {
         let start = Instant::now();
+        let plan = FramePlan::of(settings);
         let cam = camera.frame(self.width, self.height);
         let prev = self
             .prev_camera
             .unwrap_or(*camera)
             .frame(self.width, self.height);
-        if settings.mode == Mode::Reference && self.prev_camera.is_some_and(|c| c != *camera) {
+        if plan.reference && self.prev_camera.is_some_and(|c| c != *camera) {
             self.accum.clear();
             self.accum_spp = 0;
         }
@@ -271,45 +332,52 @@ impl Frame {
             }
             self.prev_lights.clone_from(&world.scene.lights);
         }
+        if plan.denoise && self.history_rate != Some(plan.rate) {
+            // A history built at another rate describes other pixels.
+            self.denoiser.reset();
+            self.history_rate = Some(plan.rate);
+        }
         let clock = PhaseClock::default();
-        let taa = settings.taa && settings.mode != Mode::Reference;
         let motion = if self.prev_camera == Some(*camera) {
             CameraMotion::Still
         } else {
             CameraMotion::Moved
         };
-        let offset = if taa {
+        let offset = if plan.resolve.is_some() {
             PixelOffset::Frame(frame_jitter(self.jitter_index))
         } else {
             PixelOffset::Centre
         };
-        let mut denoise = 0.0;
-        match settings.mode {
-            Mode::Reference => self.render_reference(world, &cam, settings, &clock),
-            Mode::Unshadowed => {
-                self.render_direct(world, (&cam, &prev), offset, settings, &clock, true)
-            }
-            _ if !settings.denoise => {
-                self.render_direct(world, (&cam, &prev), offset, settings, &clock, true)
-            }
-            _ => {
-                self.render_direct(world, (&cam, &prev), offset, settings, &clock, false);
+        let (mut denoise, mut upsample) = (0.0, 0.0);
+        if plan.reference {
+            self.render_reference(world, &cam, settings, &clock);
+        } else {
+            self.band_pass(world, (&cam, &prev), offset, settings, &plan, &clock);
+            if plan.denoise {
                 let t = Instant::now();
                 // Under a still, jittered camera `U` changes between frames
                 // only through the jitter: the per-pixel light test would
                 // drop history all over glossy, normal-mapped surfaces (a
                 // light change resets the whole history above instead).
-                self.denoise(!taa || motion == CameraMotion::Moved);
+                self.denoise(
+                    plan.rate,
+                    plan.resolve.is_none() || motion == CameraMotion::Moved,
+                );
                 denoise = t.elapsed().as_secs_f64();
+                if plan.rate == VisibilityRate::Quarter {
+                    let t = Instant::now();
+                    self.upsample(world, (&cam, &prev), offset, settings, &plan, &clock);
+                    upsample = t.elapsed().as_secs_f64();
+                }
                 let t = Instant::now();
-                self.composite(settings.mode);
+                self.composite(plan.composite);
                 PhaseClock::add(&clock.composite, t);
             }
         }
         let mut resolve = 0.0;
-        if taa {
+        if let Some(input) = plan.resolve {
             let t = Instant::now();
-            self.resolve_colour(Split::of(settings), motion);
+            self.resolve_colour(input, motion);
             resolve = t.elapsed().as_secs_f64();
         }
         self.jitter = match offset {
@@ -327,115 +395,129 @@ impl Frame {
             composite: secs(&clock.composite),
             denoise,
             resolve,
+            upsample,
             wall: start.elapsed().as_secs_f64(),
             shadow_rays: clock.shadow_rays.load(Ordering::Relaxed),
         }
     }
 
-    /// The band pass: primary rays, `U`, samples and shadow rays, and (when
-    /// `composite`, i.e. nothing is denoised) the final colour.
-    fn render_direct(
+    /// The index of this frame's first sample of a pixel: frames that
+    /// sample a pixel take consecutive indices of its sequence.
+    fn first_sample(&self, rate: VisibilityRate, spp: u32) -> u32 {
+        match rate {
+            VisibilityRate::Full => self.frame_index.wrapping_mul(spp),
+            VisibilityRate::Quarter => (self.frame_index / 4).wrapping_mul(spp),
+        }
+    }
+
+    /// The band pass: primary rays, `U`, samples and shadow rays at the
+    /// plan's rate, the guides, and (when nothing is denoised) the colour.
+    fn band_pass(
         &mut self,
         world: &World,
         (cam, prev): (&CameraFrame, &CameraFrame),
         offset: PixelOffset,
         settings: &RenderSettings,
+        plan: &FramePlan,
         clock: &PhaseClock,
-        composite: bool,
     ) {
-        let estimator = match settings.mode {
-            Mode::Ratio | Mode::Stochastic => Some(Estimator::Mis),
-            Mode::SoftShadow => Some(Estimator::AreaVisibility),
-            Mode::Unshadowed | Mode::Reference => None,
-        };
-        let split = Split::of(settings);
-        let first_sample = self.frame_index.wrapping_mul(settings.spp);
         let job = BandJob {
             world,
             cam,
             prev,
             offset,
-            estimator,
-            first_sample,
+            estimator: plan.estimator,
+            first_sample: self.first_sample(plan.rate, settings.spp),
             spp: settings.spp,
             seed: settings.seed,
             packet: settings.packet,
             clock,
         };
-        self.bands()
+        let (width, height) = (self.width, self.height);
+        let quarter = plan.rate == VisibilityRate::Quarter;
+        if quarter && self.quads.as_ref().is_none_or(|q| q.source.len() != quad_count(width, height))
+        {
+            self.quads = Some(Quads::new(width, height));
+        }
+        let quad_offset = QUAD_ORDER[(self.frame_index % 4) as usize];
+        // Taken out while the bands borrow the frame's buffers.
+        let mut quad_buffers = self.quads.take();
+        let mut quad_bands = quad_buffers
+            .as_mut()
+            .filter(|_| quarter)
+            .map(|q| quad_bands(q).into_iter());
+        let bands: Vec<(BandMut, Option<QuadBand>)> = self
+            .bands()
+            .into_iter()
+            .map(|b| (b, quad_bands.as_mut().and_then(|q| q.next())))
+            .collect();
+        bands
             .into_par_iter()
-            .for_each_init(BandScratch::default, |scratch, mut band| {
+            .for_each_init(BandScratch::default, |scratch, (mut band, quad)| {
                 let n = band.gbuf.len();
-                let t = job.run(band.y0, scratch, band.gbuf, band.u, band.un, band.sn);
-                // The guides serve the denoiser and the resolve alike; a frame
-                // with neither (composited here, TAA off) needs none.
-                if !composite || split != Split::None {
+                let mut t = job.primary_and_u(band.y0, scratch, band.gbuf, band.u);
+                match quad {
+                    Some(mut q) => {
+                        t = sample_quads(&job, scratch, &mut band, &mut q, quad_offset, t);
+                    }
+                    None => {
+                        t = job.samples(
+                            band.y0,
+                            scratch,
+                            band.gbuf,
+                            band.u,
+                            0..n,
+                            band.un,
+                            band.sn,
+                            t,
+                        );
+                    }
+                }
+                if plan.needs_guides() {
                     for (k, g) in band.gbuf.iter().enumerate() {
-                        band.guide.set(k, g, scratch.spec_share[k]);
+                        band.guide.set(k, g, scratch.spec_share[k], g.prev_pixel);
                     }
                 }
                 // The resolve's factor, while the band is in cache (an
                 // undenoised frame's is its colour, filled below).
-                match split {
-                    Split::Modulated => {
+                match plan.resolve {
+                    Some(ResolveInput::Modulated) => {
                         for (k, g) in band.gbuf.iter().enumerate() {
                             band.resolve_in[k] = g.emission + band.u[k];
                         }
                     }
-                    Split::Additive => {
+                    Some(ResolveInput::Additive) => {
                         for (k, g) in band.gbuf.iter().enumerate() {
                             band.resolve_in[k] = g.emission;
                         }
                     }
-                    Split::Whole | Split::None => {}
+                    Some(ResolveInput::Whole) | None => {}
                 }
-                if composite {
+                if !plan.denoise {
                     for k in 0..n {
                         band.color[k] = shade(
-                            settings.mode,
+                            plan.composite,
                             &band.gbuf[k],
                             band.u[k],
                             band.un[k],
                             band.sn[k],
                         );
                     }
-                    if split == Split::Whole {
+                    if plan.resolve == Some(ResolveInput::Whole) {
                         band.resolve_in.copy_from_slice(band.color);
                     }
-                } else {
-                    if settings.mode == Mode::Stochastic {
-                        // The full Monte Carlo signal is filtered as `S_N` over the
-                        // noise-free `U`: its whole noise, not only visibility's,
-                        // then drives the filter (a fair "option 2").
-                        band.un.copy_from_slice(band.u);
-                    }
+                } else if plan.filter_against_u {
+                    band.un.copy_from_slice(band.u);
                 }
                 PhaseClock::add(&clock.composite, t);
             });
+        self.quads = quad_buffers;
     }
 
     /// Splits every per-pixel buffer into the same bands of rows.
     fn bands(&mut self) -> Vec<BandMut<'_>> {
-        let n = (BAND_ROWS * self.width) as usize;
-        let g = &mut self.guide;
-        let mut guides = g
-            .position
-            .chunks_mut(n)
-            .zip(g.normal.chunks_mut(n))
-            .zip(g.depth.chunks_mut(n))
-            .zip(g.prev_pixel.chunks_mut(n))
-            .zip(g.prev_valid.chunks_mut(n))
-            .zip(g.lobe.chunks_mut(n))
-            .map(
-                |(((((position, normal), depth), prev_pixel), prev_valid), lobe)| GuideMut {
-                    position,
-                    normal,
-                    depth,
-                    prev_pixel,
-                    prev_valid,
-                    lobe,
-                },
-            );
+        let n = (BAND_ROWS * self.width).max(1) as usize;
+        let mut guides = self.guide.bands(BAND_ROWS);
         self.gbuf
             .chunks_mut(n)
             .zip(self.u.chunks_mut(n))
@@ -447,6 +529,7 @@ impl Frame {
             .map(
                 |(b, (((((gbuf, u), un), sn), color), resolve_in))| BandMut {
                     y0: b as u32 * BAND_ROWS,
+                    width: self.width,
                     gbuf,
                     u,
                     un,
@@ -459,17 +542,69 @@ impl Frame {
             .collect()
     }
 
-    fn denoise(&mut self, light_test: bool) {
-        let guide = self.guide.buffers(self.width, self.height, &self.u);
-        self.denoiser.denoise(
-            &guide,
-            &mut self.un,
-            &mut self.sn,
-            &DenoiseSettings {
-                light_test,
-                ..DenoiseSettings::default()
-            },
-        );
+    fn denoise(&mut self, rate: VisibilityRate, light_test: bool) {
+        let settings = DenoiseSettings {
+            light_test,
+            ..DenoiseSettings::default()
+        };
+        match (rate, self.quads.as_mut()) {
+            (VisibilityRate::Quarter, Some(q)) => {
+                let guide = q.guide.buffers(&q.u);
+                self.denoiser
+                    .denoise(&guide, &mut q.un, &mut q.sn, &settings);
+            }
+            _ => {
+                let guide = self.guide.buffers(&self.u);
+                self.denoiser
+                    .denoise(&guide, &mut self.un, &mut self.sn, &settings);
+            }
+        }
+    }
+
+    /// Brings the denoised quad signals to every pixel; the pixels no quad
+    /// vouched for draw their own samples (undenoised) this frame.
+    fn upsample(
+        &mut self,
+        world: &World,
+        (cam, prev): (&CameraFrame, &CameraFrame),
+        offset: PixelOffset,
+        settings: &RenderSettings,
+        plan: &FramePlan,
+        clock: &PhaseClock,
+    ) {
+        let Some(q) = self.quads.as_ref() else {
+            return;
+        };
+        let full = FullRes {
+            width: self.width,
+            gbuf: &self.gbuf,
+            lobe: &self.guide.lobe,
+        };
+        quads::upsample(&full, q, &mut self.un, &mut self.sn, &mut self.orphans);
+        if self.orphans.is_empty() {
+            return;
+        }
+        let job = BandJob {
+            world,
+            cam,
+            prev,
+            offset,
+            estimator: plan.estimator,
+            first_sample: self.frame_index.wrapping_mul(settings.spp),
+            spp: settings.spp,
+            seed: settings.seed,
+            packet: settings.packet,
+            clock,
+        };
+        let samples: Vec<(u32, Vec3, Vec3)> = self
+            .orphans
+            .par_chunks(ORPHAN_CHUNK)
+            .flat_map_iter(|chunk| orphan_samples(&job, &self.gbuf, &self.u, chunk))
+            .collect();
+        for (k, un, sn) in samples {
+            self.un[k as usize] = un;
+            self.sn[k as usize] = sn;
+        }
     }
 
     /// The temporal resolve (see `denoise::resolve`): averages over the
@@ -485,8 +620,8 @@ impl Frame {
     /// resolved colour is taken instead; an undenoised frame is resolved
     /// whole. The frame's composite is computed as before: this stage only
     /// averages it, or its per-frame noise-free factor, over frames.
-    fn resolve_colour(&mut self, split: Split, motion: CameraMotion) {
-        let guide = self.guide.buffers(self.width, self.height, &self.u);
+    fn resolve_colour(&mut self, input: ResolveInput, motion: CameraMotion) {
+        let guide = self.guide.buffers(&self.u);
         self.resolve.resolve(
             &guide,
             (&mut self.resolve_in, &mut self.color),
@@ -494,7 +629,7 @@ impl Frame {
             &ResolveSettings::default(),
             &DenoiseSettings::default(),
         );
-        if matches!(split, Split::Whole | Split::None) {
+        if input == ResolveInput::Whole {
             return;
         }
         self.color
@@ -509,22 +644,22 @@ impl Frame {
                 }
                 // Surfaces (depth > 0 in the guides) carry a ratio; lights
                 // and misses are their emission alone.
-                *c = match split {
-                    Split::Modulated if depth > 0.0 => finite_or_zero(*b * ratio(*sn, *un)),
-                    Split::Additive => finite_or_zero(*b + *sn),
+                *c = match input {
+                    ResolveInput::Modulated if depth > 0.0 => finite_or_zero(*b * ratio(*sn, *un)),
+                    ResolveInput::Additive => finite_or_zero(*b + *sn),
                     _ => *b,
                 }
             });
     }
 
-    fn composite(&mut self, mode: Mode) {
+    fn composite(&mut self, composite: Composite) {
         self.color
             .par_iter_mut()
             .zip(&self.gbuf)
             .zip(&self.u)
             .zip(&self.un)
             .zip(&self.sn)
-            .for_each(|((((c, g), u), un), sn)| *c = shade(mode, g, *u, *un, *sn));
+            .for_each(|((((c, g), u), un), sn)| *c = shade(composite, g, *u, *un, *sn));
     }
 
     /// Adds `settings.spp` jittered samples of the full MIS estimator per
@@ -589,120 +724,145 @@ impl Frame {
     }
 }
 
-/// How the temporal resolve sees a finished frame (see `resolve_colour`).
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Split {
-    /// Denoised ratio / soft-shadow: colour = (emission + U) · dn(S_N) / dn(U_N);
-    /// the resolve averages emission + U.
-    Modulated,
-    /// Denoised stochastic: colour = emission + dn(S_N); the resolve
-    /// averages the emission.
-    Additive,
-    /// Undenoised or unshadowed: the resolve averages the colour.
-    Whole,
-    /// No resolve (TAA off, or `reference`).
-    None,
+/// Orphan pixels per parallel work item.
+const ORPHAN_CHUNK: usize = 64;
+
+fn quad_count(width: u32, height: u32) -> usize {
+    width.div_ceil(2) as usize * height.div_ceil(2) as usize
 }
 
-impl Split {
-    fn of(settings: &RenderSettings) -> Split {
-        if !settings.taa {
-            return Split::None;
+/// The samples of pixels no quad vouched for: `U` per light (for the
+/// light choice) by the scalar path, then the plan's estimator.
+fn orphan_samples(job: &BandJob, gbuf: &[GSample], u: &[Vec3], chunk: &[u32]) -> Vec<(u32, Vec3, Vec3)> {
+    let Some(est) = job.estimator else {
+        return Vec::new();
+    };
+    let world = job.world;
+    let lights = &world.shading_lights;
+    let mut per_light = vec![Vec3::ZERO; lights.len()];
+    let mut batch = ShadowBatch::default();
+    let mut out: Vec<(u32, Vec3, Vec3)> = Vec::with_capacity(chunk.len());
+    for (m, &k) in chunk.iter().enumerate() {
+        let g = &gbuf[k as usize];
+        let sp = surface_point(g);
+        for (slot, light) in per_light.iter_mut().zip(lights) {
+            *slot = unshadowed_prepared(&sp, light);
         }
-        match (settings.mode, settings.denoise) {
-            (Mode::Reference, _) => Split::None,
-            (Mode::Ratio | Mode::SoftShadow, true) => Split::Modulated,
-            (Mode::Stochastic, true) => Split::Additive,
-            _ => Split::Whole,
+        let mut un = Vec3::ZERO;
+        draw_samples(
+            world,
+            g,
+            &per_light,
+            u[k as usize],
+            est,
+            (k, job.first_sample, job.seed),
+            job.spp,
+            m as u32,
+            &mut un,
+            &mut batch,
+        );
+        out.push((k, un, Vec3::ZERO));
+    }
+    batch.trace(&world.rt, job.packet, |r| out[r.slot as usize].2 += r.weight);
+    job.clock
+        .shadow_rays
+        .fetch_add(batch.rays.len() as u64, Ordering::Relaxed);
+    out
+}
+
+/// One band's rows of the quad buffers.
+struct QuadBand<'a> {
+    un: &'a mut [Vec3],
+    sn: &'a mut [Vec3],
+    u: &'a mut [Vec3],
+    source: &'a mut [u32],
+    guide: GuideMut<'a>,
+}
+
+/// Splits the quad buffers into the bands of `Frame::bands` (half as many rows).
+fn quad_bands(q: &mut Quads) -> Vec<QuadBand<'_>> {
+    let rows = BAND_ROWS / 2;
+    let n = (rows * q.width).max(1) as usize;
+    let mut guides = q.guide.bands(rows);
+    q.un.chunks_mut(n)
+        .zip(q.sn.chunks_mut(n))
+        .zip(q.u.chunks_mut(n))
+        .zip(q.source.chunks_mut(n))
+        .map(|(((un, sn), u), source)| QuadBand {
+            un,
+            sn,
+            u,
+            source,
+            guide: guides.next().expect("guides have the same bands"),
+        })
+        .collect()
+}
+
+/// Samples one pixel of each quad of the band (the one at `offset`) into
+/// the quad buffers, with the quads' guides from that pixel.
+fn sample_quads(
+    job: &BandJob,
+    scratch: &mut BandScratch,
+    band: &mut BandMut,
+    q: &mut QuadBand,
+    offset: (u32, u32),
+    since: Instant,
+) -> Instant {
+    let (width, height) = (job.cam.width, job.cam.height);
+    let qw = width.div_ceil(2);
+    let qj0 = band.y0 / 2;
+    let quads = q.un.len() as u32 / qw.max(1);
+    let mut sampled = std::mem::take(&mut scratch.sampled);
+    sampled.clear();
+    for dj in 0..quads {
+        for i in 0..qw {
+            let (x, y) = quads::sampled_pixel(i, qj0 + dj, offset, width, height);
+            let k = ((y - band.y0) * width + x) as usize;
+            let m = (dj * qw + i) as usize;
+            let g = &band.gbuf[k];
+            q.u[m] = band.u[k];
+            q.source[m] = y * width + x;
+            let prev = quads::quad_prev_pixel(g, x, y, i, qj0 + dj);
+            q.guide.set(m, g, scratch.spec_share[k], prev);
+            sampled.push(k);
         }
     }
+    let t = job.samples(
+        band.y0,
+        scratch,
+        band.gbuf,
+        band.u,
+        sampled.iter().copied(),
+        q.un,
+        q.sn,
+        since,
+    );
+    scratch.sampled = sampled;
+    t
 }
 
 /// A pixel's colour from its estimates.
 #[inline]
-fn shade(mode: Mode, g: &GSample, u: Vec3, un: Vec3, sn: Vec3) -> Vec3 {
-    let lit = match mode {
-        Mode::Unshadowed | Mode::Reference => u,
-        Mode::Ratio | Mode::SoftShadow => u * ratio(sn, un),
-        Mode::Stochastic => sn,
+fn shade(composite: Composite, g: &GSample, u: Vec3, un: Vec3, sn: Vec3) -> Vec3 {
+    let lit = match composite {
+        Composite::Unshadowed => u,
+        Composite::Ratio => u * ratio(sn, un),
+        Composite::Stochastic => sn,
     };
     finite_or_zero(g.emission + lit)
-}
-
-/// The denoiser's per-pixel guides as separate arrays.
-struct Guides {
-    position: Vec<Vec3>,
-    normal: Vec<Vec3>,
-    depth: Vec<f32>,
-    prev_pixel: Vec<Vec2>,
-    prev_valid: Vec<bool>,
-    lobe: Vec<Lobe>,
-}
-
-impl Guides {
-    fn new(n: usize) -> Guides {
-        Guides {
-            position: vec![Vec3::ZERO; n],
-            normal: vec![Vec3::ZERO; n],
-            depth: vec![0.0; n],
-            prev_pixel: vec![Vec2::ZERO; n],
-            prev_valid: vec![false; n],
-            lobe: vec![Lobe::default(); n],
-        }
-    }
-
-    /// What the denoiser and the resolve read: these guides and the frame's `U`.
-    fn buffers<'a>(&'a self, width: u32, height: u32, u: &'a [Vec3]) -> GuideBuffers<'a> {
-        GuideBuffers {
-            width,
-            height,
-            position: &self.position,
-            normal: &self.normal,
-            depth: &self.depth,
-            prev_pixel: &self.prev_pixel,
-            prev_valid: &self.prev_valid,
-            u,
-            lobe: &self.lobe,
-        }
-    }
-}
-
-struct GuideMut<'a> {
-    position: &'a mut [Vec3],
-    normal: &'a mut [Vec3],
-    depth: &'a mut [f32],
-    prev_pixel: &'a mut [Vec2],
-    prev_valid: &'a mut [bool],
-    lobe: &'a mut [Lobe],
-}
-
-impl GuideMut<'_> {
-    /// Only receiver surfaces are denoised; lights and misses pass through.
-    #[inline]
-    fn set(&mut self, k: usize, g: &GSample, spec_share: f32) {
-        let surface = g.kind == PixelKind::Surface;
-        self.position[k] = g.position;
-        self.normal[k] = if surface { g.ng } else { Vec3::ZERO };
-        self.depth[k] = if surface { g.depth } else { 0.0 };
-        self.prev_pixel[k] = g.prev_pixel;
-        self.prev_valid[k] = g.prev_valid;
-        self.lobe[k] = if surface {
-            Lobe::new(g.ng, g.wo, alpha_from_roughness(g.roughness), spec_share)
-        } else {
-            Lobe::default()
-        };
-    }
 }
 
 /// One band of rows of every per-pixel buffer.
 struct BandMut<'a> {
     y0: u32,
+    #[allow(dead_code)]
+    width: u32,
     gbuf: &'a mut [GSample],
     u: &'a mut [Vec3],
     un: &'a mut [Vec3],
     sn: &'a mut [Vec3],
     color: &'a mut [Vec3],
-    /// The resolve's noise-free factor (see `Split`).
+    /// The resolve's noise-free factor (see `ResolveInput`).
     resolve_in: &'a mut [Vec3],
     guide: GuideMut<'a>,
 }

@@ -3,12 +3,16 @@
 pub mod estimate;
 pub mod frame;
 pub mod gbuffer;
+pub mod guides;
 pub mod mode;
+pub mod plan;
 pub mod primary;
+pub mod quads;
 pub mod shadow;
 pub mod world;
 
 pub use frame::{Frame, PhaseTimes, RenderSettings};
 pub use gbuffer::{GSample, PixelKind};
 pub use mode::Mode;
+pub use plan::{FramePlan, VisibilityRate};
 pub use world::World;

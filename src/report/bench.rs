@@ -10,7 +10,7 @@ use super::results::*;
 use super::stats::{Spread, interior, interpolate_log_log, median, rel_mse, rel_mse_masked};
 use crate::embree::{self, Device};
 use crate::render::shadow::PacketWidth;
-use crate::render::{Frame, Mode, PhaseTimes, RenderSettings, World};
+use crate::render::{Frame, FramePlan, Mode, PhaseTimes, RenderSettings, VisibilityRate, World};
 use crate::scene::{Camera, Scene};
 use anyhow::{Context, Result};
 use glam::Vec3;
@@ -31,6 +31,8 @@ pub struct BenchOptions {
     pub extras: bool,
     pub cache_dir: PathBuf,
     pub quick: bool,
+    /// Measure only the configurations of these labels (empty: all).
+    pub only: Vec<String>,
 }
 
 impl BenchOptions {
@@ -45,6 +47,7 @@ impl BenchOptions {
             extras: true,
             cache_dir,
             quick: false,
+            only: Vec::new(),
         }
     }
 
@@ -59,38 +62,111 @@ impl BenchOptions {
             extras: false,
             cache_dir,
             quick: true,
+            only: Vec::new(),
         }
     }
 
-    fn configs(&self) -> Vec<(Mode, bool, u32, PacketWidth)> {
+    fn configs(&self) -> Vec<Config> {
+        let plain = |mode, denoise, spp| Config {
+            mode,
+            denoise,
+            spp,
+            packet: PacketWidth::Sixteen,
+            rate: VisibilityRate::Full,
+        };
         let mut c = Vec::new();
         for mode in [Mode::Ratio, Mode::Stochastic] {
             for denoise in [false, true] {
                 for &spp in &self.spps {
-                    c.push((mode, denoise, spp, PacketWidth::Sixteen));
+                    c.push(plain(mode, denoise, spp));
                 }
             }
         }
-        if self.extras {
-            c.push((Mode::Ratio, false, 1, PacketWidth::Eight));
-            c.push((Mode::Ratio, false, 1, PacketWidth::One));
-            c.push((Mode::SoftShadow, true, 1, PacketWidth::Sixteen));
+        for &spp in &self.spps {
+            c.push(Config {
+                rate: VisibilityRate::Quarter,
+                ..plain(Mode::Ratio, true, spp)
+            });
         }
-        c.push((Mode::Unshadowed, false, 1, PacketWidth::Sixteen));
+        if self.extras {
+            for packet in [PacketWidth::Eight, PacketWidth::One] {
+                c.push(Config {
+                    packet,
+                    ..plain(Mode::Ratio, false, 1)
+                });
+            }
+            for rate in VisibilityRate::ALL {
+                c.push(Config {
+                    rate,
+                    ..plain(Mode::SoftShadow, true, 1)
+                });
+            }
+        }
+        c.push(plain(Mode::Unshadowed, false, 1));
+        c.retain(|c| self.only.is_empty() || self.only.iter().any(|l| *l == c.label()));
         c
     }
 }
 
-/// The label of a configuration: mode, `+dn` when denoised, ` (x8)` or
-/// ` (x1)` when shadow rays are not 16-wide packets.
-pub fn label(mode: Mode, denoise: bool, packet: PacketWidth) -> String {
-    let dn = denoise && mode != Mode::Unshadowed;
+/// One measured configuration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Config {
+    mode: Mode,
+    denoise: bool,
+    spp: u32,
+    packet: PacketWidth,
+    rate: VisibilityRate,
+}
+
+impl Config {
+    fn label(&self) -> String {
+        label(self.mode, self.denoise, self.packet, self.rate)
+    }
+
+    fn settings(&self) -> RenderSettings {
+        RenderSettings {
+            mode: self.mode,
+            denoise: self.denoise,
+            spp: self.spp,
+            packet: self.packet,
+            visibility: self.rate,
+            // Undenoised rows are single-frame estimates (their error is
+            // the median over frames), so their frames stand alone; the
+            // denoised rows run as shipped, jitter and resolve included.
+            taa: self.denoise && self.mode != Mode::Unshadowed,
+            ..RenderSettings::default()
+        }
+    }
+}
+
+/// The label of a configuration: mode, `+dn` when denoised, ` 1/4` when a
+/// quarter of the pixels draw visibility samples, ` (x8)` or ` (x1)` when
+/// shadow rays are not 16-wide packets.
+pub fn label(mode: Mode, denoise: bool, packet: PacketWidth, rate: VisibilityRate) -> String {
+    let settings = RenderSettings {
+        mode,
+        denoise,
+        visibility: rate,
+        ..RenderSettings::default()
+    };
+    let plan = FramePlan::of(&settings);
+    let dn = plan.denoise;
     let width = match packet {
         PacketWidth::Sixteen => "",
         PacketWidth::Eight => " (x8)",
         PacketWidth::One => " (x1)",
     };
-    format!("{}{}{width}", mode.name(), if dn { "+dn" } else { "" })
+    let rate = match plan.rate {
+        VisibilityRate::Full => "",
+        VisibilityRate::Quarter => " 1/4",
+    };
+    format!("{}{}{rate}{width}", mode.name(), if dn { "+dn" } else { "" })
+}
+
+/// The shipped default's label (`RenderSettings::default()`).
+pub fn default_label() -> String {
+    let s = RenderSettings::default();
+    label(s.mode, s.denoise, s.packet, s.visibility)
 }
 
 /// A scene to measure: its file (`None`: the built-in scene).
@@ -267,24 +343,15 @@ fn bench_scene(
 
     let mut configs = Vec::new();
     let todo = opts.configs();
-    for (i, &(mode, denoise, spp, packet)) in todo.iter().enumerate() {
+    for (i, cfg) in todo.iter().enumerate() {
+        let (mode, spp) = (cfg.mode, cfg.spp);
         eprint!(
             "\rmeasuring {name}: {} at {spp} spp ({}/{})          ",
-            label(mode, denoise, packet),
+            cfg.label(),
             i + 1,
             todo.len()
         );
-        let settings = RenderSettings {
-            mode,
-            denoise,
-            spp,
-            packet,
-            // Undenoised rows are single-frame estimates (their error is
-            // the median over frames), so their frames stand alone; the
-            // denoised rows run as shipped, jitter and resolve included.
-            taa: denoise && mode != Mode::Unshadowed,
-            ..RenderSettings::default()
-        };
+        let settings = cfg.settings();
         let m = bench.measure(&all, size, &settings, Some((&truth, &mask)));
         let frame_ms = frame_spread(&m.runs);
         let stage = |f: fn(&PhaseTimes) -> f64| {
@@ -298,7 +365,7 @@ fn bench_scene(
         ) as u64;
         let shadowed = mode != Mode::Unshadowed;
         let ceiling_ms = ceiling_for(if shadowed { spp } else { 0 }, &all, threads);
-        let dn = denoise && shadowed;
+        let dn = FramePlan::of(&settings).denoise;
         let (rel, rel_in) = if dn {
             *m.errors.last().expect("at least one measured frame")
         } else {
@@ -308,7 +375,8 @@ fn bench_scene(
             )
         };
         configs.push(ConfigReport {
-            label: label(mode, denoise, packet),
+            label: cfg.label(),
+            visibility: FramePlan::of(&settings).rate.name().to_string(),
             mode: mode.name().to_string(),
             denoise: dn,
             spp: if shadowed { spp } else { 0 },
@@ -322,6 +390,7 @@ fn bench_scene(
                 denoise: median(&m.runs.iter().map(|r| r.denoise).collect::<Vec<_>>()) * 1e3,
                 composite: stage(|r| r.composite),
                 resolve: median(&m.runs.iter().map(|r| r.resolve).collect::<Vec<_>>()) * 1e3,
+                upsample: median(&m.runs.iter().map(|r| r.upsample).collect::<Vec<_>>()) * 1e3,
             },
             camera_rays: pixels,
             shadow_rays,
@@ -335,29 +404,31 @@ fn bench_scene(
     }
 
     eprintln!("\rmeasuring {name}: scaling with threads and resolution          ");
-    // Scaling of denoised ratio at 1 spp: one thread against all, and a
-    // quarter of the pixels against the full frame.
+    // Scaling of the shipped default: 1, 2, 4, ... threads up to all of
+    // them, and a quarter of the pixels against the full frame.
     let scaled = RenderSettings::default();
+    let shipped = default_label();
     let full = configs
         .iter()
-        .find(|c| c.label == "ratio+dn" && c.spp == 1)
+        .find(|c| c.label == shipped && c.spp == scaled.spp)
         .map(|c| c.frame_ms)
         .unwrap_or_else(|| frame_spread(&bench.measure(&all, size, &scaled, None).runs));
-    let mut thread_points = vec![ThreadPoint {
-        threads,
-        frame_ms: full,
-        ceiling_ms: ceiling_for(1, &all, threads),
-    }];
-    if threads > 1 {
-        let one = embree::thread_pool(1)?;
-        thread_points.insert(
-            0,
-            ThreadPoint {
-                threads: 1,
-                frame_ms: frame_spread(&bench.measure(&one, size, &scaled, None).runs),
-                ceiling_ms: ceiling_for(1, &one, 1),
-            },
-        );
+    let mut thread_points = Vec::new();
+    for t in thread_counts(threads) {
+        if t == threads {
+            thread_points.push(ThreadPoint {
+                threads,
+                frame_ms: full,
+                ceiling_ms: ceiling_for(scaled.spp, &all, threads),
+            });
+        } else {
+            let pool = embree::thread_pool(t)?;
+            thread_points.push(ThreadPoint {
+                threads: t,
+                frame_ms: frame_spread(&bench.measure(&pool, size, &scaled, None).runs),
+                ceiling_ms: ceiling_for(scaled.spp, &pool, t),
+            });
+        }
     }
     let (first, last) = (&thread_points[0], &thread_points[thread_points.len() - 1]);
     let thread_speedup = first.frame_ms.median / last.frame_ms.median;
@@ -390,7 +461,7 @@ fn bench_scene(
         configs,
         ceilings,
         scaling: Scaling {
-            config: format!("{} 1 spp", label(Mode::Ratio, true, PacketWidth::Sixteen)),
+            config: format!("{shipped} {} spp", scaled.spp),
             threads: thread_points,
             thread_speedup,
             ceiling_speedup,
@@ -400,14 +471,25 @@ fn bench_scene(
     })
 }
 
+/// 1, 2, 4, ... threads, and `all` itself where it is no power of two.
+fn thread_counts(all: usize) -> Vec<usize> {
+    let mut counts: Vec<usize> = std::iter::successors(Some(1usize), |t| Some(t * 2))
+        .take_while(|&t| t < all)
+        .collect();
+    counts.push(all.max(1));
+    counts
+}
+
 /// Denoised `ratio` against denoised `stochastic` at equal frame time: each
 /// measured point of either mode, with the other mode's relMSE interpolated
 /// (log-log) at its ms per frame where that lies within the other's range.
 pub fn equal_time(configs: &[ConfigReport]) -> Vec<EqualTime> {
+    let rate = RenderSettings::default().visibility.name();
     let curve = |mode: &str| -> Vec<(f64, f64, u32)> {
         configs
             .iter()
             .filter(|c| c.mode == mode && c.denoise)
+            .filter(|c| c.mode != "ratio" || c.visibility == rate)
             .map(|c| (c.frame_ms.median, c.rel_mse, c.spp))
             .collect()
     };

@@ -70,12 +70,18 @@ pub struct Stages {
     /// Wall time of the temporal resolve (absent in runs saved before it).
     #[serde(default)]
     pub resolve: f64,
+    /// Wall time of upsampling reduced-rate visibility (0 at full rate).
+    #[serde(default)]
+    pub upsample: f64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ConfigReport {
     /// Mode, `+dn` when denoised.
     pub label: String,
+    /// Which pixels drew visibility samples (`full`, `quarter`).
+    #[serde(default = "full_rate")]
+    pub visibility: String,
     pub mode: String,
     pub denoise: bool,
     pub spp: u32,
@@ -153,4 +159,8 @@ pub struct EqualTime {
     /// Interpolated (log-log) on the other mode's curve at `ms`.
     pub stochastic_rel_mse: f64,
     pub stochastic_over_ratio: f64,
+}
+
+fn full_rate() -> String {
+    "full".to_string()
 }

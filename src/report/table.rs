@@ -90,6 +90,7 @@ fn scene(out: &mut String, s: &SceneReport) {
                 .map_or("-".to_string(), |e| format!("{e:.3e}"))
         );
     }
+    stage_split(out, s);
     for c in &s.ceilings {
         let _ = writeln!(
             out,
@@ -140,6 +141,51 @@ fn scene(out: &mut String, s: &SceneReport) {
             out,
             "equal time at {:.1} ms ({}): relMSE ratio+dn {:.3e}, stochastic+dn {:.3e} ({:.2}x)",
             e.ms, e.anchor, e.ratio_rel_mse, e.stochastic_rel_mse, e.stochastic_over_ratio
+        );
+    }
+}
+
+/// Each stage's cost in ns per pixel (thread time over the thread count;
+/// the denoiser, upsampling and resolve are wall time), beside what Embree
+/// alone takes for the same rays: its camera rays, and the ceiling's shadow
+/// rays scaled to the number this configuration traced.
+fn stage_split(out: &mut String, s: &SceneReport) {
+    let Some(ceiling) = s.ceilings.iter().find(|c| c.spp == 1).or(s.ceilings.first()) else {
+        return;
+    };
+    let pixels = ceiling.camera_rays.max(1) as f64;
+    let ns = |ms: f64| ms * 1e6 / pixels;
+    let _ = writeln!(
+        out,
+        "\nstage split, ns per pixel ({:.0} pixels); Embree alone: camera rays {:.1}, shadow rays (as many as the row traced) in brackets",
+        pixels,
+        ns(ceiling.primary_ms)
+    );
+    let _ = writeln!(
+        out,
+        "{:<18} {:>7} {:>7} {:>15} {:>7} {:>8} {:>7} {:>7} {:>7}",
+        "config", "primary", "U", "shadow (Embree)", "denoise", "upsample", "compose", "resolve", "frame"
+    );
+    for c in &s.configs {
+        let st = &c.stages_ms;
+        let per_ray = if ceiling.shadow_rays > 0 {
+            ceiling.shadow_ms / ceiling.shadow_rays as f64
+        } else {
+            0.0
+        };
+        let embree_shadow = ns(per_ray * c.shadow_rays as f64);
+        let _ = writeln!(
+            out,
+            "{:<18} {:>7.1} {:>7.1} {:>15} {:>7.1} {:>8.1} {:>7.1} {:>7.1} {:>7.1}",
+            format!("{} {}spp", c.label, c.spp),
+            ns(st.primary),
+            ns(st.u),
+            format!("{:.1} ({:.1})", ns(st.shadow), embree_shadow),
+            ns(st.denoise),
+            ns(st.upsample),
+            ns(st.composite),
+            ns(st.resolve),
+            ns(c.frame_ms.median)
         );
     }
 }

@@ -31,6 +31,8 @@ pub enum Action {
     ToggleDenoise,
     /// Per-frame jitter and the temporal resolve (TAA) on / off.
     ToggleTaa,
+    /// The next visibility rate (full, quarter).
+    CycleVisibility,
     FewerSamples,
     MoreSamples,
     Faster,
@@ -49,6 +51,7 @@ pub const HELP: &[&str] = &[
     "1 RATIO 2 STOCHASTIC 3 SOFT-SHADOW",
     "4 UNSHADOWED 5 REFERENCE",
     "N (SHIFT+D) DENOISER  T TAA",
+    "V VISIBILITY RATE (FULL, QUARTER)",
     "[ ] SPP",
     "P SCREENSHOT  R RESET  O OVERLAY",
     "H HELP  ESC QUIT",
@@ -119,6 +122,7 @@ fn action_of(key: Key, shift: bool) -> Option<Action> {
         Key::N => Action::ToggleDenoise,
         Key::D if shift => Action::ToggleDenoise,
         Key::T => Action::ToggleTaa,
+        Key::V => Action::CycleVisibility,
         Key::LeftBracket => Action::FewerSamples,
         Key::RightBracket => Action::MoreSamples,
         Key::Equal | Key::NumPadPlus => Action::Faster,

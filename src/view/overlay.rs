@@ -3,7 +3,7 @@
 
 use super::font::{ADVANCE_Y, Canvas, text_width};
 use super::input::HELP;
-use crate::render::Mode;
+use crate::render::{Mode, VisibilityRate};
 
 /// The figures of one shown frame, in seconds.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -37,6 +37,9 @@ pub struct Readout {
     pub denoise: Option<bool>,
     /// Jitter + temporal resolve; `None` for `reference` (its own jitter).
     pub taa: Option<bool>,
+    /// Which pixels draw visibility samples; `None` where nothing is
+    /// denoised (every pixel samples).
+    pub visibility: Option<VisibilityRate>,
     /// Samples per pixel per frame.
     pub spp: u32,
     /// `reference`: samples per pixel accumulated so far.
@@ -68,6 +71,13 @@ impl Readout {
         }
     }
 
+    fn visibility_words(&self) -> String {
+        match self.visibility {
+            Some(r) => format!("  VIS {}", r.name().to_uppercase()),
+            None => String::new(),
+        }
+    }
+
     fn spp_words(&self) -> String {
         match self.accumulated {
             Some(total) => format!("{total} SPP (+{}/FRAME)", self.spp),
@@ -88,10 +98,11 @@ impl Readout {
         let t = &self.timing;
         let mut lines = vec![
             format!(
-                "{}  {}{}  {}  {}X{}",
+                "{}  {}{}{}  {}  {}X{}",
                 self.mode.name().to_uppercase(),
                 self.denoise_word(),
                 self.taa_word(),
+                self.visibility_words(),
                 self.spp_words(),
                 self.width,
                 self.height
@@ -193,6 +204,7 @@ mod tests {
             mode: Mode::Ratio,
             denoise: Some(true),
             taa: Some(true),
+            visibility: Some(VisibilityRate::Quarter),
             spp: 2,
             accumulated: None,
             width: 320,
@@ -213,7 +225,10 @@ mod tests {
     #[test]
     fn the_overlay_names_mode_denoiser_taa_spp_size_times_fps_and_rays() {
         let lines = readout().lines();
-        assert_eq!(lines[0], "RATIO  DENOISE ON  TAA ON  2 SPP  320X180");
+        assert_eq!(
+            lines[0],
+            "RATIO  DENOISE ON  TAA ON  VIS QUARTER  2 SPP  320X180"
+        );
         assert_eq!(lines[1], "MS RENDER 25.0 DENOISE 4.0 PRESENT 1.0");
         assert_eq!(lines[2], "25.0 FPS  80.0 MRAYS/S  SPEED 2.50  H HELP");
         let title = readout().title();
@@ -229,6 +244,7 @@ mod tests {
             mode: Mode::Reference,
             denoise: None,
             taa: None,
+            visibility: None,
             accumulated: Some(64),
             ..readout()
         };

@@ -6,7 +6,7 @@ use super::controls::Flyer;
 use super::input::{Action, FrameInput};
 use super::overlay::{self, FrameTiming, Readout};
 use super::present;
-use crate::render::{Frame, Mode, PhaseTimes, RenderSettings, World};
+use crate::render::{Frame, FramePlan, Mode, PhaseTimes, RenderSettings, World};
 use crate::scene::Camera;
 use std::time::{Duration, Instant};
 
@@ -89,6 +89,11 @@ impl Session {
                 // A resolve history built from unjittered frames (or the
                 // reverse) is not the box filter: start it afresh.
                 self.reset();
+            }
+            Action::CycleVisibility => {
+                // The frame drops the denoiser's history itself (it was
+                // built at the other rate).
+                self.settings.visibility = self.settings.visibility.next();
             }
             Action::FewerSamples => self.settings.spp = (self.settings.spp / 2).max(1),
             Action::MoreSamples => self.settings.spp = (self.settings.spp * 2).min(MAX_SPP),
@@ -205,6 +210,7 @@ impl Session {
             mode,
             denoise: uses_denoiser.then_some(self.settings.denoise),
             taa: (mode != Mode::Reference).then_some(self.settings.taa),
+            visibility: FramePlan::of(&self.settings).denoise.then_some(self.settings.visibility),
             spp: self.settings.spp,
             accumulated: (mode == Mode::Reference).then_some(self.accumulated),
             width,

@@ -7,7 +7,7 @@ use super::present;
 use super::script::{Player, SCRIPT_DT, Script};
 use super::session::Session;
 use crate::embree::{self, Device};
-use crate::render::{Mode, RenderSettings, World};
+use crate::render::{Mode, RenderSettings, VisibilityRate, World};
 use crate::scene::Scene;
 use anyhow::{Context, Result, bail};
 use minifb::{Key, KeyRepeat, MouseButton, MouseMode, ScaleMode, Window, WindowOptions};
@@ -26,6 +26,8 @@ pub struct ViewOptions {
     pub denoise: bool,
     /// Per-frame jitter and temporal resolve (`RenderSettings::taa`).
     pub taa: bool,
+    /// Which pixels draw visibility samples (`RenderSettings::visibility`).
+    pub visibility: VisibilityRate,
     pub exposure: f32,
     /// Draw the overlay (key `O` toggles it).
     pub overlay: bool,
@@ -78,6 +80,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         seed: opts.seed,
         denoise: opts.denoise,
         taa: opts.taa,
+        visibility: opts.visibility,
         ..RenderSettings::default()
     };
     let mut session = Session::new(settings, &camera, w, h, opts.exposure, opts.overlay);

@@ -1,0 +1,144 @@
+//! What a frame runs, decided once from the settings: which samples are
+//! drawn and at what rate, whether they are denoised, how the colour is
+//! composed and what the temporal resolve averages. The stages read the
+//! plan's fields; none of them looks at the mode again.
+
+use super::estimate::Estimator;
+use super::frame::RenderSettings;
+use super::mode::Mode;
+use std::fmt;
+use std::str::FromStr;
+
+/// How many pixels draw visibility samples (`U_N`, `S_N`) per frame. `U` is
+/// evaluated at every pixel every frame whatever the rate: the shading
+/// detail lives there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum VisibilityRate {
+    /// Every pixel, every frame.
+    Full,
+    /// One pixel of each 2x2 quad per frame, rotating so every pixel is
+    /// sampled once in 4 frames; the samples are denoised at quad
+    /// resolution and the ratio is brought back to every pixel with the
+    /// G-buffer as guide.
+    #[default]
+    Quarter,
+}
+
+impl VisibilityRate {
+    pub const ALL: [VisibilityRate; 2] = [VisibilityRate::Full, VisibilityRate::Quarter];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            VisibilityRate::Full => "full",
+            VisibilityRate::Quarter => "quarter",
+        }
+    }
+
+    /// The next rate in `ALL` (the viewer's key cycles through them).
+    pub fn next(self) -> VisibilityRate {
+        let i = Self::ALL.iter().position(|r| *r == self).unwrap_or(0);
+        Self::ALL[(i + 1) % Self::ALL.len()]
+    }
+}
+
+impl fmt::Display for VisibilityRate {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for VisibilityRate {
+    type Err = String;
+    fn from_str(s: &str) -> Result<VisibilityRate, String> {
+        Self::ALL
+            .into_iter()
+            .find(|r| r.name() == s)
+            .ok_or_else(|| format!("unknown visibility rate \"{s}\" (expected full or quarter)"))
+    }
+}
+
+/// How a pixel's colour is formed from the frame's signals.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Composite {
+    /// `emission + U`.
+    Unshadowed,
+    /// `emission + U · S_N / U_N` (ratio and soft-shadow).
+    Ratio,
+    /// `emission + S_N` (full Monte Carlo).
+    Stochastic,
+}
+
+/// What the temporal resolve averages over jittered frames, so that nothing
+/// is averaged twice (see `Frame::resolve_colour`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ResolveInput {
+    /// Denoised ratio: the resolve averages `emission + U`, the frame's
+    /// ratio multiplies the result.
+    Modulated,
+    /// Denoised stochastic: the resolve averages the emission, the
+    /// denoised `S_N` is added.
+    Additive,
+    /// Undenoised or unshadowed: the resolve averages the colour.
+    Whole,
+}
+
+/// The stages of one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FramePlan {
+    /// Progressive accumulation of jittered samples: the reference path.
+    pub reference: bool,
+    /// What the visibility samples estimate; `None`: no samples.
+    pub estimator: Option<Estimator>,
+    /// Where samples are drawn (`Quarter` only where they are denoised
+    /// into a ratio).
+    pub rate: VisibilityRate,
+    pub denoise: bool,
+    /// Denoised stochastic filters `S_N` against the noise-free `U` (its
+    /// whole noise, not only visibility's, then drives the filter).
+    pub filter_against_u: bool,
+    pub composite: Composite,
+    /// Per-frame camera jitter and the temporal resolve; `None`: neither.
+    pub resolve: Option<ResolveInput>,
+}
+
+impl FramePlan {
+    pub fn of(s: &RenderSettings) -> FramePlan {
+        let reference = s.mode == Mode::Reference;
+        let estimator = match s.mode {
+            Mode::Ratio | Mode::Stochastic | Mode::Reference => Some(Estimator::Mis),
+            Mode::SoftShadow => Some(Estimator::AreaVisibility),
+            Mode::Unshadowed => None,
+        };
+        let composite = match s.mode {
+            Mode::Ratio | Mode::SoftShadow => Composite::Ratio,
+            Mode::Stochastic => Composite::Stochastic,
+            Mode::Unshadowed | Mode::Reference => Composite::Unshadowed,
+        };
+        let denoise = s.denoise && estimator.is_some() && !reference;
+        let rate = if denoise && composite == Composite::Ratio {
+            s.visibility
+        } else {
+            VisibilityRate::Full
+        };
+        let resolve = (s.taa && !reference).then_some(match (composite, denoise) {
+            (Composite::Ratio, true) => ResolveInput::Modulated,
+            (Composite::Stochastic, true) => ResolveInput::Additive,
+            _ => ResolveInput::Whole,
+        });
+        FramePlan {
+            reference,
+            estimator,
+            rate,
+            denoise,
+            filter_against_u: denoise && composite == Composite::Stochastic,
+            composite,
+            resolve,
+        }
+    }
+
+    /// Whether the band pass fills the guides (the denoiser and the resolve
+    /// read them).
+    pub fn needs_guides(&self) -> bool {
+        self.denoise || self.resolve.is_some()
+    }
+}
