@@ -114,6 +114,10 @@ struct ViewArgs {
     /// Replay timed key and mouse events from this file (see README, "Viewer").
     #[arg(long)]
     script: Option<PathBuf>,
+    /// Scale the render resolution (down to a quarter of each side) to
+    /// hold this many frames per second; the window stretches the frame.
+    #[arg(long)]
+    target_fps: Option<f32>,
     /// Draw the overlay (mode, timings, fps): on | off. Key O toggles it.
     #[arg(long, default_value = "on")]
     overlay: Switch,
@@ -149,6 +153,9 @@ struct BenchArgs {
     /// Print (and with --plot, draw) a report saved by --json instead of measuring.
     #[arg(long, value_name = "FILE.json")]
     from_json: Option<PathBuf>,
+    /// Samples per pixel of the measured rows (default 1,2,4,8; --quick 1,4).
+    #[arg(long, value_delimiter = ',')]
+    spp: Vec<u32>,
     /// Measure only these configurations, by the labels of the table
     /// (comma-separated, e.g. "ratio+dn,ratio+dn 1/4").
     #[arg(long, value_delimiter = ',')]
@@ -338,6 +345,7 @@ fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {
         visibility: a.common.visibility_rate,
         exposure: a.common.exposure,
         overlay: a.overlay == Switch::On,
+        target_fps: a.target_fps,
         frames: a.frames,
         screenshot: a.screenshot,
         script: a.script,
@@ -356,6 +364,12 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
     opts.frames = a.frames.unwrap_or(opts.frames);
     opts.reference_spp = a.ref_spp.unwrap_or(opts.reference_spp);
     opts.only = a.only;
+    if !a.spp.is_empty() {
+        if a.spp.contains(&0) {
+            bail!("--spp must be at least 1");
+        }
+        opts.spps = a.spp;
+    }
     penumbra::scene::check_resolution(opts.width, opts.height).map_err(anyhow::Error::msg)?;
     if opts.frames == 0 || opts.reference_spp == 0 {
         bail!("--frames and --ref-spp must be at least 1");

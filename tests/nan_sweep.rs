@@ -13,7 +13,7 @@ use glam::Vec3;
 use image::{ImageFormat, Rgb32FImage};
 use penumbra::embree::{self, Device};
 use penumbra::output::Aov;
-use penumbra::render::{Frame, Mode, RenderSettings, World};
+use penumbra::render::{Frame, Mode, RenderSettings, VisibilityRate, World};
 use penumbra::scene::{Camera, Scene};
 use std::fmt::Write;
 use std::path::Path;
@@ -284,13 +284,22 @@ fn sweep_scene(scene: &Scene, what: &str, findings: &mut Vec<String>) -> usize {
         target: cam.target + step + step.cross(cam.up) * 0.5,
         ..cam
     };
-    for mode in Mode::ALL.into_iter().filter(|m| m.available()) {
-        for denoise in [false, true] {
+    let plans = Mode::ALL.into_iter().flat_map(|mode| {
+        // The rate matters only where samples are denoised into a ratio.
+        let rated = matches!(mode, Mode::Ratio | Mode::SoftShadow);
+        [(false, VisibilityRate::Full), (true, VisibilityRate::Full)]
+            .into_iter()
+            .chain(rated.then_some((true, VisibilityRate::Quarter)))
+            .map(move |(denoise, rate)| (mode, denoise, rate))
+    });
+    for (mode, denoise, rate) in plans.filter(|(m, _, _)| m.available()) {
+        {
             let settings = RenderSettings {
                 mode,
                 spp: 2,
                 seed: 7,
                 denoise,
+                visibility: rate,
                 ..RenderSettings::default()
             };
             let mut frame = Frame::new(WIDTH, HEIGHT);
@@ -298,7 +307,7 @@ fn sweep_scene(scene: &Scene, what: &str, findings: &mut Vec<String>) -> usize {
                 pool.install(|| frame.render(&world, c, &settings));
                 if let Some(bad) = first_non_finite(&frame) {
                     findings.push(format!(
-                        "{what}, {mode}, denoise {denoise}, frame {i}: {bad}"
+                        "{what}, {mode}, denoise {denoise}, visibility {rate}, frame {i}: {bad}"
                     ));
                 }
                 lit += frame.u.iter().filter(|u| u.max_element() > 0.0).count();

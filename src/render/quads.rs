@@ -19,8 +19,9 @@ use rayon::prelude::*;
 pub const QUAD_ORDER: [(u32, u32); 4] = [(0, 0), (1, 1), (1, 0), (0, 1)];
 
 /// Upsampling: a tap's spatial weight falls as a Gaussian of its distance
-/// in full-resolution pixels (taps lie 0 to 3.2 pixels away).
+/// in full-resolution pixels (taps lie at most 3 pixels away on each axis).
 const SPATIAL_SIGMA: f32 = 1.25;
+const REACH: i32 = 3;
 /// A tap is refused when its point lies farther than this fraction of the
 /// pixel's depth from the pixel's tangent plane (the denoiser's own
 /// reprojection tolerance), when its depth differs by more than
@@ -99,6 +100,7 @@ pub fn upsample(
     orphans: &mut Vec<u32>,
 ) {
     let w = full.width as usize;
+    let spatial = spatial_weights();
     let rows: Vec<Vec<u32>> = un
         .par_chunks_mut(w)
         .zip(sn.par_chunks_mut(w))
@@ -113,7 +115,7 @@ pub fn upsample(
                     sn_row[x] = Vec3::ZERO;
                     continue;
                 }
-                match gather(full, quads, x as u32, y as u32) {
+                match gather(full, quads, &spatial, x as u32, y as u32) {
                     Some((u, s)) => {
                         un_row[x] = u;
                         sn_row[x] = s;
@@ -137,12 +139,17 @@ pub fn upsample(
 /// The weighted average of the 3x3 quads around pixel `(x, y)`, or `None`
 /// where none of them sampled the pixel's surface.
 #[inline]
-fn gather(full: &FullRes, quads: &Quads, x: u32, y: u32) -> Option<(Vec3, Vec3)> {
+fn gather(
+    full: &FullRes,
+    quads: &Quads,
+    spatial: &SpatialWeights,
+    x: u32,
+    y: u32,
+) -> Option<(Vec3, Vec3)> {
     let k = (y * full.width + x) as usize;
     let g = &full.gbuf[k];
     let lobe = &full.lobe[k];
     let (qi, qj) = (x / 2, y / 2);
-    let inv_2s2 = 1.0 / (2.0 * SPATIAL_SIGMA * SPATIAL_SIGMA);
     let (mut wsum, mut un, mut sn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
     for j in qj.saturating_sub(1)..=(qj + 1).min(quads.height - 1) {
         for i in qi.saturating_sub(1)..=(qi + 1).min(quads.width - 1) {
@@ -164,10 +171,10 @@ fn gather(full: &FullRes, quads: &Quads, x: u32, y: u32) -> Option<(Vec3, Vec3)>
             }
             let s = quads.source[q];
             let (sx, sy) = (s % full.width, s / full.width);
-            let (dx, dy) = (sx as f32 - x as f32, sy as f32 - y as f32);
-            let spatial = (-(dx * dx + dy * dy) * inv_2s2).exp();
-            let lobe_w = (-LOBE_SCALE * lobe.separation2(&quads.guide.lobe[q])).exp();
-            let wt = spatial * lobe_w;
+            let mut wt = spatial.at(sx as i32 - x as i32, sy as i32 - y as i32);
+            if lobe.sharpness > 0.0 {
+                wt *= (-LOBE_SCALE * lobe.separation2(&quads.guide.lobe[q])).exp();
+            }
             if !(wt > 0.0) {
                 continue;
             }
@@ -181,5 +188,27 @@ fn gather(full: &FullRes, quads: &Quads, x: u32, y: u32) -> Option<(Vec3, Vec3)>
         Some((un * inv, sn * inv))
     } else {
         None
+    }
+}
+
+/// The spatial weight of every tap offset within `REACH`, computed once
+/// per frame instead of once per tap.
+struct SpatialWeights([f32; (2 * REACH + 1) as usize * (2 * REACH + 1) as usize]);
+
+fn spatial_weights() -> SpatialWeights {
+    let side = 2 * REACH + 1;
+    let inv_2s2 = 1.0 / (2.0 * SPATIAL_SIGMA * SPATIAL_SIGMA);
+    SpatialWeights(std::array::from_fn(|k| {
+        let (dx, dy) = (k as i32 % side - REACH, k as i32 / side - REACH);
+        (-((dx * dx + dy * dy) as f32) * inv_2s2).exp()
+    }))
+}
+
+impl SpatialWeights {
+    #[inline]
+    fn at(&self, dx: i32, dy: i32) -> f32 {
+        let side = 2 * REACH + 1;
+        let (dx, dy) = (dx.clamp(-REACH, REACH), dy.clamp(-REACH, REACH));
+        self.0[((dy + REACH) * side + dx + REACH) as usize]
     }
 }

@@ -6,6 +6,7 @@ pub mod font;
 pub mod input;
 pub mod overlay;
 pub mod present;
+pub mod scale;
 pub mod script;
 mod session;
 mod window;

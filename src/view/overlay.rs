@@ -40,6 +40,8 @@ pub struct Readout {
     /// Which pixels draw visibility samples; `None` where nothing is
     /// denoised (every pixel samples).
     pub visibility: Option<VisibilityRate>,
+    /// Render size over window size under a target frame rate.
+    pub scale: Option<f32>,
     /// Samples per pixel per frame.
     pub spp: u32,
     /// `reference`: samples per pixel accumulated so far.
@@ -98,14 +100,16 @@ impl Readout {
         let t = &self.timing;
         let mut lines = vec![
             format!(
-                "{}  {}{}{}  {}  {}X{}",
+                "{}  {}{}{}  {}  {}X{}{}",
                 self.mode.name().to_uppercase(),
                 self.denoise_word(),
                 self.taa_word(),
                 self.visibility_words(),
                 self.spp_words(),
                 self.width,
-                self.height
+                self.height,
+                self.scale
+                    .map_or(String::new(), |s| format!(" ({:.0}%)", s * 100.0))
             ),
             format!(
                 "MS RENDER {:.1} DENOISE {:.1} PRESENT {:.1}",
@@ -205,6 +209,7 @@ mod tests {
             denoise: Some(true),
             taa: Some(true),
             visibility: Some(VisibilityRate::Quarter),
+            scale: None,
             spp: 2,
             accumulated: None,
             width: 320,

@@ -6,6 +6,7 @@ use super::controls::Flyer;
 use super::input::{Action, FrameInput};
 use super::overlay::{self, FrameTiming, Readout};
 use super::present;
+use super::scale::DynamicScale;
 use crate::render::{Frame, FramePlan, Mode, PhaseTimes, RenderSettings, World};
 use crate::scene::Camera;
 use std::time::{Duration, Instant};
@@ -37,6 +38,10 @@ pub struct Session {
     smoothed: FrameTiming,
     /// Pixels that came out of the renderer non-finite (shown black).
     pub non_finite: u64,
+    /// The window's size; the frame's is this, or its dynamic scale.
+    window: (u32, u32),
+    /// Holds a target frame rate by the render resolution (`--target-fps`).
+    pub dynamic: Option<DynamicScale>,
 }
 
 impl Session {
@@ -63,7 +68,30 @@ impl Session {
             timings: Vec::new(),
             smoothed: FrameTiming::default(),
             non_finite: 0,
+            window: (width, height),
+            dynamic: None,
         }
+    }
+
+    /// The window changed size: render at its new size (or its scale).
+    pub fn resize_window(&mut self, width: u32, height: u32) -> bool {
+        self.window = (width, height);
+        let (w, h) = self.render_size();
+        self.resize(w, h)
+    }
+
+    /// Takes a shown frame's time; under a target frame rate, rescales the
+    /// render when the controller says so.
+    pub fn hold_frame_rate(&mut self, frame_seconds: f64) {
+        if self.dynamic.as_mut().is_some_and(|d| d.observe(frame_seconds)) {
+            let (w, h) = self.render_size();
+            self.resize(w, h);
+        }
+    }
+
+    fn render_size(&self) -> (u32, u32) {
+        let (w, h) = self.window;
+        self.dynamic.as_ref().map_or((w, h), |d| d.size(w, h))
     }
 
     pub fn size(&self) -> (u32, u32) {
@@ -211,6 +239,7 @@ impl Session {
             denoise: uses_denoiser.then_some(self.settings.denoise),
             taa: (mode != Mode::Reference).then_some(self.settings.taa),
             visibility: FramePlan::of(&self.settings).denoise.then_some(self.settings.visibility),
+            scale: self.dynamic.as_ref().map(|d| d.scale()),
             spp: self.settings.spp,
             accumulated: (mode == Mode::Reference).then_some(self.accumulated),
             width,

@@ -5,6 +5,7 @@
 use super::input::{Action, FrameInput};
 use super::present;
 use super::script::{Player, SCRIPT_DT, Script};
+use super::scale::DynamicScale;
 use super::session::Session;
 use crate::embree::{self, Device};
 use crate::render::{Mode, RenderSettings, VisibilityRate, World};
@@ -29,6 +30,9 @@ pub struct ViewOptions {
     /// Which pixels draw visibility samples (`RenderSettings::visibility`).
     pub visibility: VisibilityRate,
     pub exposure: f32,
+    /// Scale the render resolution to hold this frame rate (the window
+    /// stretches the frame to its size).
+    pub target_fps: Option<f32>,
     /// Draw the overlay (key `O` toggles it).
     pub overlay: bool,
     /// Close after this many frames.
@@ -59,6 +63,9 @@ pub fn run(opts: ViewOptions) -> Result<()> {
     if opts.frames == Some(0) {
         bail!("--frames must be at least 1");
     }
+    if opts.target_fps.is_some_and(|f| DynamicScale::new(f).is_none()) {
+        bail!("--target-fps must be a positive number of frames per second");
+    }
     if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
         return Err(no_window(
             "no display to open a window on (DISPLAY is not set)",
@@ -84,6 +91,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         ..RenderSettings::default()
     };
     let mut session = Session::new(settings, &camera, w, h, opts.exposure, opts.overlay);
+    session.dynamic = opts.target_fps.and_then(DynamicScale::new);
     let player = script.map(Player::new);
     fly(
         &mut window,
@@ -175,7 +183,7 @@ fn fly(
             session.resize(rw, rh);
         } else if now_size != window_size {
             // The user resized the window: render at its new size.
-            session.resize(now_size.0 as u32, now_size.1 as u32);
+            session.resize_window(now_size.0 as u32, now_size.1 as u32);
         }
         window_size = now_size;
 
@@ -188,7 +196,11 @@ fn fly(
             .context("presenting the frame")?;
         window.set_title(&session.readout().title());
         let present = t.elapsed().as_secs_f64();
-        session.record(&times, present, start.elapsed().as_secs_f64());
+        let total = start.elapsed().as_secs_f64();
+        session.record(&times, present, total);
+        if input.resize.is_none() {
+            session.hold_frame_rate(total);
+        }
         shown += 1;
     }
     Ok(())
