@@ -77,7 +77,7 @@ fuzz: deps
 
 # Small renders under valgrind memcheck: any invalid read or write, or leak
 # definitely lost, in any code fails the run (--error-exitcode). No
-# suppressions are needed with Debian's Embree 3.13 / TBB (see README).
+# suppressions are needed with Debian's Embree 3.13 / TBB (see docs/robustness.md).
 VALGRIND := valgrind --tool=memcheck --error-exitcode=99 --errors-for-leak-kinds=definite --leak-check=full --track-origins=yes --num-callers=30
 memcheck: deps
 	$(V3) $(CARGO) build --release

@@ -1,5 +1,5 @@
-//! Where the denoised error lives on a scene of several receivers (issue 5's
-//! 4x on `shadow-plane`): after `frames` static frames at 1 spp with TAA
+//! Where the denoised error lives on a scene of several receivers (the 4x
+//! goal on `shadow-plane`, docs/denoiser.md): after `frames` static frames at 1 spp with TAA
 //! (what `render --frames 16` writes), the interior relMSE against
 //! `reference` of denoised `ratio` and denoised `stochastic`, split per
 //! material and per how much of the light the pixel's BRDF lobe sees

@@ -1,4 +1,4 @@
-//! The denoiser's figures for the README: relMSE against `reference` for
+//! The denoiser's figures for docs/denoiser.md: relMSE against `reference` for
 //! ratio / stochastic x TAA (jitter + colour resolve) on / off x denoise
 //! on / off x 1, 4, 16 static frames at 1 spp, the frame-to-frame flicker of
 //! the ratio in penumbrae on an orbiting camera, and the denoiser's and the

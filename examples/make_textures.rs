@@ -1,4 +1,5 @@
-//! Generates the small procedural textures used by `scenes/room.toml`:
+//! Generates the small procedural textures used by `scenes/room.toml` and by
+//! the built-in scene `scenes/default.toml`:
 //!
 //! ```text
 //! cargo run --release --example make_textures   # writes scenes/textures/*.png
@@ -12,6 +13,12 @@
 //!   with a low-frequency smudge so highlights vary within a tile.
 //! - `tiles_normal.png`   tangent-space normals, +Y up (OpenGL): grooves at the grout
 //!   lines and a gentle bevel, from finite differences of a height field.
+//!
+//! For the built-in scene, one map for its floor strips (each strip's quad maps the
+//! whole image, 1.2 x 7.2 scene units):
+//! - `showcase_normal.png` tangent-space normals, 384x64: a row of 6 square tiles with
+//!   a bevel and a groove, each tile tilted by up to 0.03 in slope (from a hash of
+//!   its index) so that a glossy reflection breaks from tile to tile.
 //!
 //! Deterministic (no random numbers), so regenerating gives identical files.
 
@@ -101,5 +108,58 @@ fn main() {
     normal
         .save(dir.join("tiles_normal.png"))
         .expect("write normal");
+
+    showcase_normal()
+        .save(dir.join("showcase_normal.png"))
+        .expect("write showcase normal");
     println!("wrote {}", dir.display());
+}
+
+/// Size of `showcase_normal.png` and its tiles: 6 along s, 1 along t, so the
+/// tiles are square on a 1.2 x 7.2 strip.
+const SHOWCASE_W: u32 = 384;
+const SHOWCASE_H: u32 = 64;
+const SHOWCASE_TILES_S: f64 = 6.0;
+/// Groove half-width and bevel width, in tile units.
+const SHOWCASE_GROOVE: f64 = 0.035;
+const SHOWCASE_BEVEL: f64 = 0.05;
+/// Slope per unit of height (per tile width): the bevel's steepest slope is about 0.6.
+const SHOWCASE_DEPTH: f64 = 0.02;
+/// Largest per-tile tilt, as a slope along each axis.
+const SHOWCASE_TILT: f64 = 0.03;
+
+/// Height of the showcase tiles at texture coordinates (s, t), in units the
+/// normal's slopes are taken in (see `SHOWCASE_DEPTH`).
+fn showcase_height(s: f64, t: f64) -> f64 {
+    let (s, t) = (s.rem_euclid(1.0), t.rem_euclid(1.0));
+    let (fs, ft) = ((s * SHOWCASE_TILES_S).fract(), t);
+    let d = fs.min(1.0 - fs).min(ft.min(1.0 - ft));
+    let x = ((d - SHOWCASE_GROOVE) / SHOWCASE_BEVEL).clamp(0.0, 1.0);
+    let bevel = x * x * (3.0 - 2.0 * x);
+    // Per-tile tilt from an integer hash of the tile's index: two slopes in [-1, 1].
+    let tile = (s * SHOWCASE_TILES_S) as u32;
+    let hash = ((tile.wrapping_mul(73_856_093)) ^ 0x5bd1_e995).wrapping_mul(2_654_435_761);
+    let ax = (hash & 0xffff) as f64 / 65535.0 * 2.0 - 1.0;
+    let ay = (hash >> 16) as f64 / 65535.0 * 2.0 - 1.0;
+    let tilt = SHOWCASE_TILT / SHOWCASE_DEPTH * (ax * (fs - 0.5) + ay * (ft - 0.5));
+    bevel * (1.0 + tilt)
+}
+
+fn showcase_normal() -> RgbImage {
+    let (hs, ht) = (1.0 / SHOWCASE_W as f64, 1.0 / SHOWCASE_H as f64);
+    RgbImage::from_fn(SHOWCASE_W, SHOWCASE_H, |i, j| {
+        let s = (i as f64 + 0.5) * hs;
+        let t = 1.0 - (j as f64 + 0.5) * ht;
+        // Slopes per tile width: s spans 6 tiles, t one.
+        let dhds = (showcase_height(s + hs, t) - showcase_height(s - hs, t))
+            / (2.0 * hs)
+            / SHOWCASE_TILES_S
+            * SHOWCASE_DEPTH;
+        let dhdt =
+            (showcase_height(s, t + ht) - showcase_height(s, t - ht)) / (2.0 * ht) * SHOWCASE_DEPTH;
+        let (nx, ny, nz) = (-dhds, -dhdt, 1.0f64);
+        let len = (nx * nx + ny * ny + nz * nz).sqrt();
+        let enc = |c: f64| ((c / len * 0.5 + 0.5) * 255.0).round() as u8;
+        Rgb([enc(nx), enc(ny), enc(nz)])
+    })
 }

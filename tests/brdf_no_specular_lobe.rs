@@ -1,4 +1,4 @@
-//! SCENE_FORMAT.md: `specular = [0, 0, 0]` means *no specular lobe*. Schlick's
+//! docs/scene-format.md: `specular = [0, 0, 0]` means *no specular lobe*. Schlick's
 //! Fresnel `F0 + (1 - F0)(1 - wo.h)^5` would still be > 0 at grazing views
 //! with F0 = 0; the Monte Carlo estimators (stochastic, reference) must not
 //! pick that term up, or they disagree with `U` and with any independent

@@ -1,4 +1,4 @@
-//! Quality of the denoised frame against `reference` (issue 5, point 4):
+//! Quality of the denoised frame against `reference` (docs/denoiser.md, *Quality tests*):
 //! accuracy after 16 static frames, shading detail on the mapped floor,
 //! contact shadows, and temporal stability on an orbiting camera.
 //!
@@ -261,7 +261,7 @@ fn after_16_frames_denoised_ratio_is_within_3e_3_of_reference_on_room() {
     );
 }
 
-/// The issue's 4x against `reference`, which needs TAA: without it the
+/// The 4x goal against `reference`, which needs TAA: without it the
 /// pixel-centred floor (7.4e-4 here) is above a quarter of denoised
 /// stochastic and at most 1.25x is possible.
 #[test]
@@ -301,15 +301,14 @@ fn after_16_frames_the_denoiser_leaves_4x_less_error_on_ratio_than_on_stochastic
     );
 }
 
-/// On shadow-plane the issue's 4x is NOT met, not even against the converged
-/// estimators (2.6x over seeds 1-3 when last measured): on the glossy and
+/// On shadow-plane the 4x goal is NOT met, not even against the converged
+/// estimators (2.6x over seeds 1-3, docs/denoiser.md): on the glossy and
 /// near-mirror strips the error is the visibility seen through the lobe,
 /// which both estimators share sample for sample; the ratio cancels only the
 /// BRDF and light variance, which MIS leaves small there. The pixels whose
 /// lobe straddles the bar's reflected edge hold 96 % of the ratio's error
 /// here, with stochastic only 1.63x above it on them
-/// (`cargo run --release --example denoise_strips`; README, Denoiser
-/// section). What holds is kept from regressing.
+/// (`cargo run --release --example denoise_strips`; docs/denoiser.md). What holds is kept from regressing.
 #[test]
 fn after_16_frames_the_denoised_ratio_has_2_2x_less_error_than_stochastic_on_shadow_plane() {
     let e = sixteen_frames("shadow-plane.toml", (160, 90), &SHADOW_PLANE_SEEDS);

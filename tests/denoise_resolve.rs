@@ -1,5 +1,5 @@
 //! The temporal resolve under a still camera: jittered frames average each
-//! pixel's area, the box filter `reference` uses (issue 5, TAA).
+//! pixel's area, the box filter `reference` uses (TAA).
 mod common;
 
 use common::{interior, load};

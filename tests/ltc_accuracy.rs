@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 const ROUGHNESS: [f32; 7] = [0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0];
 const VIEW_DEG: [f32; 8] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0, 89.0];
-/// The target: median relative error of the specular U for
+/// The accuracy goal: median relative error of the specular U for
 /// roughness >= 0.2 (lights holding >= 1% of the lobe), asserted for the
 /// worst of the three F0 channels and for F0 = 1 alone.
 const TARGET_MEDIAN: f32 = 0.01;

@@ -23,7 +23,7 @@ const CASES: usize = 240;
 const SEED: u64 = 0x05ee_d0f7_a11d;
 /// Specular F0 per channel, as in tests/ltc_accuracy.rs.
 const F0: Vec3 = Vec3::new(1.0, 0.5, 0.04);
-/// The target for roughness >= 0.2 (lights holding >= 1% of the
+/// The accuracy goal for roughness >= 0.2 (lights holding >= 1% of the
 /// lobe): median relative error of the worst of the three channels.
 const TARGET_MEDIAN: f32 = 0.01;
 /// Measured on this set with the committed table and correction, rounded

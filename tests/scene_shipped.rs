@@ -34,12 +34,58 @@ fn every_shipped_scene_loads() {
     );
 }
 
+/// Quads among the built-in scene's meshes: its floor strips.
+fn strips(s: &Scene) -> Vec<&penumbra::scene::Material> {
+    s.meshes
+        .iter()
+        .filter(|m| m.indices.len() == 2)
+        .map(|m| &s.materials[m.material as usize])
+        .collect()
+}
+
 #[test]
-fn builtin_scene_loads() {
+fn builtin_scene_is_normal_mapped_strips_of_four_roughnesses_under_two_polygon_lights() {
     let s = Scene::builtin();
-    assert_eq!(s.triangle_count(), 2 + 12);
-    assert_eq!(s.lights.len(), 1);
+    // Four strips (2 triangles each) and four posts (boxes, 12 each).
+    assert_eq!(s.triangle_count(), 4 * 2 + 4 * 12);
+    assert_eq!(s.lights.len(), 2);
+    assert!(s.lights.iter().all(|l| l.quad.is_none()), "polygon lights");
     assert_eq!((s.width, s.height), (1280, 720));
+    let strips = strips(&s);
+    assert_eq!(strips.len(), 4);
+    assert!(strips.iter().all(|m| m.normal_map.is_some()));
+    let mut roughness: Vec<f32> = strips.iter().map(|m| m.roughness).collect();
+    roughness.sort_by(f32::total_cmp);
+    roughness.dedup();
+    assert_eq!(
+        roughness.len(),
+        4,
+        "four distinct roughnesses: {roughness:?}"
+    );
+    assert!(roughness[0] < 0.2, "a polished strip: {roughness:?}");
+    assert_eq!(
+        strips
+            .iter()
+            .filter(|m| m.specular.max_element() == 0.0)
+            .count(),
+        1,
+        "one Lambert strip"
+    );
+}
+
+#[test]
+fn builtin_scene_equals_scenes_default_toml_loaded_from_disk() {
+    let (built, file) = (Scene::builtin(), load("default.toml"));
+    assert_eq!(built.triangle_count(), file.triangle_count());
+    assert_eq!(built.lights, file.lights);
+    for (a, b) in strips(&built).iter().zip(strips(&file)) {
+        let (ta, tb) = (
+            a.normal_map.as_ref().unwrap(),
+            b.normal_map.as_ref().unwrap(),
+        );
+        assert_eq!((ta.width, ta.height), (tb.width, tb.height));
+        assert!(ta.texels == tb.texels, "the compiled-in map is the file's");
+    }
 }
 
 #[test]

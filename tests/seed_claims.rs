@@ -172,8 +172,8 @@ fn soft_shadow_is_wrong_on_the_glossy_floor_of_room_and_ratio_is_not() {
         factors.push(e_soft / e_ratio);
     }
     // The figure needs the shadow to fall on the glossy floor in view: 1423
-    // pixels (15 % of the frame) here; the room before issue 4's figure had
-    // 108 (its polished tiles were few and mostly lit), and fails here.
+    // pixels (15 % of the frame) here; a room whose polished tiles are few and
+    // mostly lit has 108 and fails here.
     assert!(n > 500, "only {n} shadowed glossy floor pixels");
     // Measured 3.8x and 76x (128x72, these seeds); soft-shadow = ratio gives 1x.
     assert!(factors[0] > 3.0, "against reference: {}x", factors[0]);

@@ -1,4 +1,4 @@
-//! BRDF sampling for the SCENE_FORMAT BRDF (Lambert + GGX): GGX visible
+//! BRDF sampling for the BRDF of docs/scene-format.md (Lambert + GGX): GGX visible
 //! normals for the specular lobe, cosine-weighted hemisphere for the diffuse
 //! lobe, one lobe chosen per sample, and the combined pdf MIS needs.
 //!

@@ -25,7 +25,7 @@ use glam::{DVec3, Vec2, Vec3};
 /// across) cos/d² varies by a few percent unless the light is grazing.
 pub const SOLID_ANGLE_AREA_FALLBACK: f32 = 1e-3;
 
-/// Lights have at most 8 vertices (SCENE_FORMAT), so a fan has at most 6 triangles.
+/// Lights have at most 8 vertices (docs/scene-format.md), so a fan has at most 6 triangles.
 const MAX_VERTS: usize = 8;
 const MAX_TRIS: usize = MAX_VERTS - 2;
 

@@ -1,6 +1,6 @@
 use glam::Vec3;
 
-/// Pinhole camera exactly as SCENE_FORMAT.md defines it.
+/// Pinhole camera exactly as docs/scene-format.md defines it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
     pub eye: Vec3,

@@ -83,8 +83,14 @@ pub struct Scene {
     pub lights: Vec<Light>,
 }
 
-/// The built-in scene used when no file is given (no external files needed).
+/// The built-in scene used when no file is given: `scenes/default.toml`,
+/// compiled in together with the files it names, so it needs no files at run time.
 pub const BUILTIN_SCENE_TOML: &str = include_str!("../../scenes/default.toml");
+/// The files `BUILTIN_SCENE_TOML` names, by the path it names them with.
+pub const BUILTIN_FILES: &[(&str, &[u8])] = &[(
+    "textures/showcase_normal.png",
+    include_bytes!("../../scenes/textures/showcase_normal.png"),
+)];
 
 impl Scene {
     /// Reads and validates a scene file; every problem is a `SceneError`
@@ -101,8 +107,12 @@ impl Scene {
 
     /// The built-in default scene.
     pub fn builtin() -> Scene {
-        parse::parse_text(BUILTIN_SCENE_TOML, Path::new("<builtin>/default.toml"))
-            .expect("the built-in scene is valid (checked by a test)")
+        parse::parse_text_with(
+            BUILTIN_SCENE_TOML,
+            Path::new("<builtin>/default.toml"),
+            BUILTIN_FILES,
+        )
+        .expect("the built-in scene is valid (checked by a test)")
     }
 
     pub fn triangle_count(&self) -> usize {

@@ -1,4 +1,4 @@
-//! TOML scene text to `Scene`, following SCENE_FORMAT.md to the letter.
+//! TOML scene text to `Scene`, following docs/scene-format.md to the letter.
 //!
 //! The document is parsed with `toml`'s span-preserving `DeTable` so every
 //! key keeps its line; each section is then read through `fields::Section`,
@@ -83,6 +83,15 @@ fn table_list<'a, 'i>(ctx: &Ctx, f: &Field<'a, 'i>) -> Result<Vec<(usize, &'a De
 }
 
 pub fn parse_text(text: &str, path: &Path) -> std::result::Result<Scene, SceneError> {
+    parse_text_with(text, path, &[])
+}
+
+/// `parse_text` with `embedded` files in place of files on disk.
+pub fn parse_text_with(
+    text: &str,
+    path: &Path,
+    embedded: Embedded,
+) -> std::result::Result<Scene, SceneError> {
     let ctx = Ctx::new(text, path);
     let doc = DeTable::parse(text).map_err(|e| {
         let line = e.span().map_or(1, |s| ctx.line_of(s.start));
@@ -120,7 +129,10 @@ pub fn parse_text(text: &str, path: &Path) -> std::result::Result<Scene, SceneEr
         None => (DEFAULT_WIDTH, DEFAULT_HEIGHT),
     };
 
-    let mut textures = TextureCache::default();
+    let mut textures = TextureCache {
+        loaded: HashMap::new(),
+        embedded,
+    };
     let mut by_name: HashMap<String, (u32, usize)> = HashMap::new();
     let mut mats = Vec::with_capacity(materials.len());
     for (i, (line, t)) in materials.iter().enumerate() {
@@ -237,22 +249,31 @@ fn parse_output(sec: &Section) -> Result<(u32, u32)> {
     Ok((wv as u32, hv as u32))
 }
 
-/// Textures by (resolved path, encoding): a map shared by materials loads once.
-#[derive(Default)]
-struct TextureCache(HashMap<(PathBuf, Encoding), Texture>);
+/// Files held in memory, by the path a scene names them with (the built-in
+/// scene's textures): looked up before the file system.
+pub type Embedded<'e> = &'e [(&'e str, &'e [u8])];
 
-impl TextureCache {
+/// Textures by (resolved path, encoding): a map shared by materials loads once.
+struct TextureCache<'e> {
+    loaded: HashMap<(PathBuf, Encoding), Texture>,
+    embedded: Embedded<'e>,
+}
+
+impl TextureCache<'_> {
     fn get(&mut self, sec: &Section, key: &str, enc: Encoding) -> Result<Option<Texture>> {
         let Some((rel, line)) = sec.opt_string(key)? else {
             return Ok(None);
         };
         let path = sec.ctx.resolve(rel);
-        if let Some(t) = self.0.get(&(path.clone(), enc)) {
+        if let Some(t) = self.loaded.get(&(path.clone(), enc)) {
             return Ok(Some(t.clone()));
         }
-        let tex = Texture::load(&path, enc)
-            .map_err(|msg| sec.err(line, format!("{key} = \"{rel}\": {msg}")))?;
-        self.0.insert((path, enc), tex.clone());
+        let tex = match self.embedded.iter().find(|(name, _)| *name == rel) {
+            Some((_, bytes)) => Texture::from_bytes(bytes, &path, enc),
+            None => Texture::load(&path, enc),
+        }
+        .map_err(|msg| sec.err(line, format!("{key} = \"{rel}\": {msg}")))?;
+        self.loaded.insert((path, enc), tex.clone());
         Ok(Some(tex))
     }
 }

@@ -77,7 +77,26 @@ impl Texture {
     /// adds it).
     pub fn load(path: &Path, encoding: Encoding) -> Result<Texture, String> {
         let reader = image::ImageReader::open(path)
-            .map_err(|e| format!("cannot open {}: {e}", path.display()))?
+            .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+        Texture::decode(reader, path, encoding)
+    }
+
+    /// Decodes an image held in memory (the built-in scene's files); `path`
+    /// names it in messages.
+    pub fn from_bytes(bytes: &[u8], path: &Path, encoding: Encoding) -> Result<Texture, String> {
+        Texture::decode(
+            image::ImageReader::new(std::io::Cursor::new(bytes)),
+            path,
+            encoding,
+        )
+    }
+
+    fn decode<R: std::io::BufRead + std::io::Seek>(
+        reader: image::ImageReader<R>,
+        path: &Path,
+        encoding: Encoding,
+    ) -> Result<Texture, String> {
+        let reader = reader
             .with_guessed_format()
             .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         if reader.format().is_none() {

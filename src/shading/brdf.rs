@@ -1,4 +1,4 @@
-//! The project's BRDF, exactly as SCENE_FORMAT.md defines it: Lambert plus
+//! The project's BRDF, exactly as docs/scene-format.md defines it: Lambert plus
 //! GGX microfacets with Smith height-correlated masking-shadowing and Schlick
 //! Fresnel, no energy compensation.
 //!
@@ -117,7 +117,7 @@ pub fn spec_local(alpha: f32, wi: Vec3, wo: Vec3) -> (f32, f32) {
 }
 
 /// Whether a material has a specular lobe at all: `specular = [0, 0, 0]`
-/// means none (SCENE_FORMAT.md), so Schlick's grazing term `(1 - wo.h)^5`
+/// means none (docs/scene-format.md), so Schlick's grazing term `(1 - wo.h)^5`
 /// must not bring one back. The one test that `U`, the BRDF and the lobe
 /// choice of the samplers share, so that the analytic and Monte Carlo
 /// answers (stochastic, reference) agree on such surfaces.

@@ -1,5 +1,5 @@
 //! Helpers shared by the sampling tests: light construction, f64 reference
-//! geometry and the SCENE_FORMAT BRDF. Not every test file uses every helper.
+//! geometry and the BRDF of docs/scene-format.md. Not every test file uses every helper.
 #![allow(dead_code)]
 
 use glam::{DVec3, Vec3};
@@ -100,7 +100,7 @@ fn smith_lambda(cos: f64, alpha: f64) -> f64 {
     0.5 * ((1.0 + alpha * alpha * tan2).sqrt() - 1.0)
 }
 
-/// The SCENE_FORMAT specular lobe with F = 1 (specular = [1,1,1]):
+/// The specular lobe of docs/scene-format.md with F = 1 (specular = [1,1,1]):
 /// D G2 / (4 |n·wi| |n·wo|), height-correlated G2; 0 below either horizon.
 pub fn f_spec(n: DVec3, wo: DVec3, wi: DVec3, alpha: f64) -> f64 {
     let (no, ni) = (n.dot(wo), n.dot(wi));
