@@ -66,7 +66,7 @@ struct SceneArgs {
     /// and soft-shadow: full (every pixel) | quarter (one of each 2x2,
     /// rotating; denoised at quad resolution and upsampled along the
     /// G-buffer's edges). `U` is evaluated at every pixel either way.
-    #[arg(long, default_value = "quarter")]
+    #[arg(long, default_value = "full")]
     visibility_rate: VisibilityRate,
     /// Exposure in stops for PNG and the window.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]

@@ -253,7 +253,7 @@ fn check_sides(e: &Edge, what: &str) {
         };
         let n = (EDGE_W * EDGE_H) as usize;
         let (mut un, mut sn, mut orphans) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
-        upsample(&full, &q, &mut un, &mut sn, &mut orphans);
+        upsample(&full, &q, &vec![Vec3::ONE; n], &mut un, &mut sn, &mut orphans);
         for k in 0..n {
             if orphans.contains(&(k as u32)) {
                 continue;
@@ -311,7 +311,7 @@ fn upsampling_fills_every_pixel_of_a_plane() {
     };
     let n = (EDGE_W * EDGE_H) as usize;
     let (mut un, mut sn, mut orphans) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
-    upsample(&full, &q, &mut un, &mut sn, &mut orphans);
+    upsample(&full, &q, &vec![Vec3::ONE; n], &mut un, &mut sn, &mut orphans);
     assert!(orphans.is_empty(), "orphans on a plane: {orphans:?}");
     assert!(un.iter().all(|u| u.x > 0.0));
 }

@@ -12,7 +12,9 @@ use super::primary::{PACKET_H, PixelOffset, trace_rows};
 use super::quads::{self, FullRes, QUAD_ORDER, Quads};
 use super::shadow::{PacketWidth, ShadowBatch};
 use super::world::World;
-use crate::denoise::{CameraMotion, DenoiseSettings, Denoiser, Resolve, ResolveSettings};
+use crate::denoise::{
+    CameraMotion, DenoiseSettings, Denoiser, Resolve, ResolveSettings, luminance,
+};
 use crate::sampling::sequence::frame_jitter;
 use crate::scene::{Camera, CameraFrame, Light};
 use crate::shading::unshadowed_prepared;
@@ -580,7 +582,7 @@ impl Frame {
             gbuf: &self.gbuf,
             lobe: &self.guide.lobe,
         };
-        quads::upsample(&full, q, &mut self.un, &mut self.sn, &mut self.orphans);
+        quads::upsample(&full, q, &self.u, &mut self.un, &mut self.sn, &mut self.orphans);
         if self.orphans.is_empty() {
             return;
         }
@@ -837,6 +839,19 @@ fn sample_quads(
         q.sn,
         since,
     );
+    // A quad's history mixes the samples of its four pixels, whose `U` may
+    // differ a hundredfold (the edge of a glossy highlight): scaled by
+    // 1 / U, each pixel's samples estimate its visibility with one weight,
+    // and the brightest pixel no longer decides the quad's ratio. One
+    // factor for both signals keeps each pixel's own ratio as it was.
+    for ((un, sn), u) in q.un.iter_mut().zip(q.sn.iter_mut()).zip(q.u.iter()) {
+        let l = luminance(*u);
+        if l > 1e-20 && l.is_finite() {
+            let inv = 1.0 / l;
+            *un *= inv;
+            *sn *= inv;
+        }
+    }
     scratch.sampled = sampled;
     t
 }

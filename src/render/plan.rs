@@ -15,12 +15,12 @@ use std::str::FromStr;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum VisibilityRate {
     /// Every pixel, every frame.
+    #[default]
     Full,
     /// One pixel of each 2x2 quad per frame, rotating so every pixel is
     /// sampled once in 4 frames; the samples are denoised at quad
     /// resolution and the ratio is brought back to every pixel with the
     /// G-buffer as guide.
-    #[default]
     Quarter,
 }
 

@@ -7,6 +7,7 @@
 //! around it vouches for (a sliver of geometry too thin to be sampled this
 //! frame) draws its own samples instead.
 
+use super::estimate::ratio;
 use super::gbuffer::{GSample, PixelKind};
 use super::guides::Guides;
 use crate::denoise::Lobe;
@@ -87,14 +88,19 @@ pub struct FullRes<'a> {
     pub lobe: &'a [Lobe],
 }
 
-/// Brings the denoised quad signals to every pixel (see the module docs):
-/// `un[k]`, `sn[k]` get the weighted averages of the quads' denoised
-/// signals, with one weight per tap for both. Surface pixels no quad
-/// vouches for are listed in `orphans` (in pixel order) and left at zero;
-/// pixels off surfaces get zero.
+/// Brings the denoised quad ratios to every pixel (see the module docs):
+/// pixel `k` gets `un[k] = u[k]`, its own analytic `U`, and `sn[k]` that
+/// times the weighted average of the quads' denoised ratios `S_N / U_N`.
+/// The ratios are averaged, not the signals: a neighbour's `U_N` may be a
+/// highlight's, many times the pixel's, and would outweigh every other tap.
+/// Where every tap's ratio is exactly 1 the average is exactly 1 (the
+/// weighted sum of ones is the sum of the weights), so `sn[k] == un[k]`.
+/// Surface pixels no quad vouches for are listed in `orphans` (in pixel
+/// order) and left at zero; pixels off surfaces get zero.
 pub fn upsample(
     full: &FullRes,
     quads: &Quads,
+    u: &[Vec3],
     un: &mut [Vec3],
     sn: &mut [Vec3],
     orphans: &mut Vec<u32>,
@@ -116,9 +122,9 @@ pub fn upsample(
                     continue;
                 }
                 match gather(full, quads, &spatial, x as u32, y as u32) {
-                    Some((u, s)) => {
-                        un_row[x] = u;
-                        sn_row[x] = s;
+                    Some(r) => {
+                        un_row[x] = u[k];
+                        sn_row[x] = u[k] * r;
                     }
                     None => {
                         un_row[x] = Vec3::ZERO;
@@ -136,8 +142,8 @@ pub fn upsample(
     }
 }
 
-/// The weighted average of the 3x3 quads around pixel `(x, y)`, or `None`
-/// where none of them sampled the pixel's surface.
+/// The weighted average of the ratios of the 3x3 quads around pixel
+/// `(x, y)`, or `None` where none of them sampled the pixel's surface.
 #[inline]
 fn gather(
     full: &FullRes,
@@ -145,12 +151,12 @@ fn gather(
     spatial: &SpatialWeights,
     x: u32,
     y: u32,
-) -> Option<(Vec3, Vec3)> {
+) -> Option<Vec3> {
     let k = (y * full.width + x) as usize;
     let g = &full.gbuf[k];
     let lobe = &full.lobe[k];
     let (qi, qj) = (x / 2, y / 2);
-    let (mut wsum, mut un, mut sn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
+    let (mut wsum, mut sum) = (0.0f32, Vec3::ZERO);
     for j in qj.saturating_sub(1)..=(qj + 1).min(quads.height - 1) {
         for i in qi.saturating_sub(1)..=(qi + 1).min(quads.width - 1) {
             let q = (j * quads.width + i) as usize;
@@ -179,16 +185,12 @@ fn gather(
                 continue;
             }
             wsum += wt;
-            un += quads.un[q] * wt;
-            sn += quads.sn[q] * wt;
+            sum += ratio(quads.sn[q], quads.un[q]) * wt;
         }
     }
-    if wsum > 0.0 {
-        let inv = 1.0 / wsum;
-        Some((un * inv, sn * inv))
-    } else {
-        None
-    }
+    // `sum / wsum`, not `sum * (1 / wsum)`: where every ratio is 1 the
+    // quotient of two equal numbers is exactly 1.
+    (wsum > 0.0).then(|| sum / wsum)
 }
 
 /// The spatial weight of every tap offset within `REACH`, computed once
