@@ -96,7 +96,9 @@ dpkg-deb -x "$deb" "$work/deb-root" || fail "dpkg-deb -x $deb"
 [[ -f $work/deb-root/usr/include/embree4/rtcore.h ]] ||
     fail "$(basename "$deb") has no include/embree4/rtcore.h (suite '$SUITE' ships Embree $(dpkg-deb -f "$deb" Version), not 4)"
 mkdir -p "$PREFIX/include"
-cp -r "$work/deb-root/usr/include/embree4" "$PREFIX/include/"
+# -a keeps the package's mtimes: a fresh fetch of the same headers does
+# not make cargo rebuild (build.rs watches rtcore.h).
+cp -a "$work/deb-root/usr/include/embree4" "$PREFIX/include/"
 
 echo "embree4-fetch: wheel embreex==$WHEEL_VERSION"
 "$python" -m pip download --quiet --no-deps --only-binary=:all: \
