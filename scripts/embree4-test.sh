@@ -41,7 +41,7 @@ e4 nice -n 10 "$CARGO" build --release --bin penumbra || fail "Embree 4 build"
 E4_BIN=$E4_TARGET/release/penumbra
 
 # Each binary must load the Embree it was built for, found without help.
-ldd "$E3_BIN" | grep -q 'libembree3\.so' || fail "$E3_BIN does not link libembree3"
+ldd "$E3_BIN" | grep 'libembree3\.so' >/dev/null || fail "$E3_BIN does not link libembree3"
 e4_lib=$(env -u LD_LIBRARY_PATH ldd "$E4_BIN" | awk '/libembree4/ {print $3}')
 [[ $e4_lib == "$E4_DIR"/lib/* ]] || fail "$E4_BIN loads libembree4 from '$e4_lib', not $E4_DIR/lib"
 echo "$E4_BIN loads $e4_lib"
