@@ -6,7 +6,7 @@ BIN := target/release/penumbra
 # `penumbra bench --plot`; valgrind: `make memcheck`; the build needs neither).
 APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 
-.PHONY: run test deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun
+.PHONY: run test test-embree4 deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun
 
 # .cargo/config.toml builds for x86-64-v4 (AVX-512); on a CPU without it,
 # build for x86-64-v3 (AVX2 + FMA) instead. RUSTFLAGS replaces the file's flags.
@@ -37,6 +37,12 @@ run: build
 
 test: deps
 	$(CARGO) test --release
+
+# The Embree 4 leg (docs/embree.md): fetches Embree 4 into target/embree4,
+# builds against it in target/embree4-build, runs the Embree tests there and
+# checks every shipped scene's frames against the Embree 3 build's.
+test-embree4: deps
+	scripts/embree4-test.sh
 
 lint: deps
 	$(CARGO) fmt --all -- --check

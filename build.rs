@@ -3,6 +3,9 @@
 //! Search order: `EMBREE_DIR` (a prefix holding `include/embree{4,3}` and
 //! `lib`), then `/usr/include/embree4`, then `/usr/include/embree3`. Emits
 //! `cfg(embree4)` or `cfg(embree3)` so the safe wrapper compiles against either.
+//! A library found under `EMBREE_DIR` is linked with an rpath to its folder,
+//! so the binaries run without `LD_LIBRARY_PATH`; an `EMBREE_DIR` without
+//! headers is an error, not a silent fall-back to the system's Embree.
 
 use std::env;
 use std::path::{Path, PathBuf};
@@ -30,22 +33,34 @@ fn find_in(prefix: &Path, lib_dir: Option<PathBuf>) -> Option<Found> {
     None
 }
 
-fn find() -> Option<Found> {
-    if let Ok(dir) = env::var("EMBREE_DIR") {
-        let dir = PathBuf::from(dir);
+fn find() -> Result<Found, String> {
+    if let Some(dir) = env::var_os("EMBREE_DIR").filter(|d| !d.is_empty()) {
+        // Absolute, so the rpath holds wherever the binary is run from.
+        let dir = std::fs::canonicalize(&dir).map_err(|e| {
+            format!(
+                "EMBREE_DIR={} cannot be opened: {e}",
+                Path::new(&dir).display()
+            )
+        })?;
         for lib in ["lib", "lib64"] {
             let lib_dir = dir.join(lib);
             if lib_dir.is_dir()
                 && let Some(f) = find_in(&dir.join("include"), Some(lib_dir))
             {
-                return Some(f);
+                return Ok(f);
             }
         }
-        if let Some(f) = find_in(&dir.join("include"), None) {
-            return Some(f);
-        }
+        return find_in(&dir.join("include"), None).ok_or_else(|| {
+            format!(
+                "EMBREE_DIR={} has no include/embree4/rtcore.h or include/embree3/rtcore.h",
+                dir.display()
+            )
+        });
     }
-    find_in(Path::new("/usr/include"), None)
+    find_in(Path::new("/usr/include"), None).ok_or_else(|| {
+        // One clear line: the fix is a package install.
+        "Embree not found (looked in $EMBREE_DIR, /usr/include/embree4, /usr/include/embree3): install it with `sudo apt-get install libembree-dev` (and `libclang-dev` for bindgen), or set EMBREE_DIR".to_string()
+    })
 }
 
 /// The AVX-512 features the build targets that the machine building it
@@ -87,17 +102,19 @@ fn main() {
         return;
     }
 
-    let Some(found) = find() else {
-        // One clear line: the fix is a package install.
-        println!(
-            "cargo::error=Embree not found (looked in $EMBREE_DIR, /usr/include/embree4, /usr/include/embree3): install it with `sudo apt-get install libembree-dev` (and `libclang-dev` for bindgen), or set EMBREE_DIR"
-        );
-        return;
+    let found = match find() {
+        Ok(found) => found,
+        Err(message) => {
+            println!("cargo::error={message}");
+            return;
+        }
     };
 
     println!("cargo:rustc-cfg=embree{}", found.major);
     if let Some(lib_dir) = &found.lib_dir {
         println!("cargo:rustc-link-search=native={}", lib_dir.display());
+        // A private prefix is not on the loader's path.
+        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib_dir.display());
     }
     println!("cargo:rustc-link-lib=embree{}", found.major);
     println!("cargo:rerun-if-changed={}", found.header.display());

@@ -128,10 +128,25 @@ fn inactive_lanes_are_never_traced() {
     assert_eq!(scene.occluded16(&rays), rays.active);
 }
 
+fn version_parts(v: &str) -> Vec<u32> {
+    let parts: Vec<u32> = v.split('.').map(|s| s.parse().unwrap()).collect();
+    assert_eq!(parts.len(), 3, "{v}");
+    parts
+}
+
 #[test]
 fn device_reports_linked_embree_version() {
     let v = Device::version();
-    let parts: Vec<u32> = v.split('.').map(|s| s.parse().unwrap()).collect();
-    assert_eq!(parts.len(), 3, "{v}");
+    let parts = version_parts(&v);
     assert!(parts[0] == 3 || parts[0] == 4, "{v}");
+}
+
+#[test]
+fn linked_library_matches_the_headers_major_and_is_not_older() {
+    let device = Device::new().unwrap();
+    let library = device.library_version();
+    let header = Device::header_version();
+    let (l, h) = (version_parts(&library), version_parts(&header));
+    assert_eq!(l[0], h[0], "library {library}, headers {header}");
+    assert!(l >= h, "library {library} is older than headers {header}");
 }

@@ -106,13 +106,20 @@ impl Device {
         match Device::new() {
             Ok(device) => device.library_version(),
             // Without a device the compile-time header version is the best answer.
-            Err(_) => format!(
-                "{}.{}.{}",
-                sys::RTC_VERSION_MAJOR,
-                sys::RTC_VERSION_MINOR,
-                sys::RTC_VERSION_PATCH
-            ),
+            Err(_) => Device::header_version(),
         }
+    }
+
+    /// Version of the Embree headers this binary was compiled against, e.g.
+    /// "3.13.5". The library loaded at run time must have the same major
+    /// version and be at least as new.
+    pub fn header_version() -> String {
+        format!(
+            "{}.{}.{}",
+            sys::RTC_VERSION_MAJOR,
+            sys::RTC_VERSION_MINOR,
+            sys::RTC_VERSION_PATCH
+        )
     }
 
     /// Version of the library behind this device, e.g. "3.13.5".
