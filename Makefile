@@ -6,7 +6,7 @@ BIN := target/release/penumbra
 # `penumbra bench --plot`; valgrind: `make memcheck`; the build needs neither).
 APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 
-.PHONY: run test deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun
+.PHONY: run test deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun golden-bless
 
 # .cargo/config.toml builds for x86-64-v4 (AVX-512); on a CPU without it,
 # build for x86-64-v3 (AVX2 + FMA) instead. RUSTFLAGS replaces the file's flags.
@@ -97,3 +97,8 @@ longrun: build
 	  $(BIN) render --frames $(LONGRUN_FRAMES) --width 64 --height 36 --out out/longrun.png
 	scripts/longrun.sh "view --frames $(LONGRUN_FRAMES) (Xvfb)" $(LONGRUN_BOUND_KIB) \
 	  xvfb-run -a $(BIN) view --frames $(LONGRUN_FRAMES) --width 64 --height 36 --screenshot out/longrun-view.png
+
+# Re-renders every golden frame of tests/golden.rs into tests/golden/ (after a
+# change to the frames that is meant); `make test` compares against them.
+golden-bless: deps
+	PENUMBRA_GOLDEN_BLESS=1 $(CARGO) test --release --test golden -- every_mode_on_every_shipped_scene
