@@ -193,10 +193,10 @@ impl Limits {
     /// The figures above their limits, as `name value > limit` lines (empty: passed).
     pub fn exceeded(&self, c: &Comparison) -> Vec<String> {
         let mut out = Vec::new();
-        if let Some(m) = self.max_rel_mse.filter(|&m| !(c.rel_mse <= m)) {
+        if let Some(m) = self.max_rel_mse.filter(|&m| c.rel_mse > m) {
             out.push(format!("relMSE {:.6e} > {m:e}", c.rel_mse));
         }
-        if let Some(m) = self.max_flip.filter(|&m| !(c.mean_flip <= m)) {
+        if let Some(m) = self.max_flip.filter(|&m| c.mean_flip > m) {
             out.push(format!("mean FLIP {:.6} > {m}", c.mean_flip));
         }
         out

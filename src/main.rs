@@ -423,7 +423,7 @@ fn cmd_compare(a: CompareArgs) -> ExitCode {
     use penumbra::compare::{self, Image, Limits};
     let run = || -> Result<Vec<String>> {
         for (name, v) in [("--max-relmse", a.max_relmse), ("--max-flip", a.max_flip)] {
-            if v.is_some_and(|v| !(v >= 0.0 && v.is_finite())) {
+            if v.is_some_and(|v| !v.is_finite() || v < 0.0) {
                 bail!("{name} must be a finite number, at least 0");
             }
         }
