@@ -267,13 +267,14 @@ fn bench_scene(
 
     let mut configs = Vec::new();
     let todo = opts.configs();
+    let bar = super::progress::bar(
+        todo.len() as u64,
+        format!("measuring {name}"),
+        "configurations",
+    );
     for (i, &(mode, denoise, spp, packet)) in todo.iter().enumerate() {
-        eprint!(
-            "\rmeasuring {name}: {} at {spp} spp ({}/{})          ",
-            label(mode, denoise, packet),
-            i + 1,
-            todo.len()
-        );
+        bar.set_position(i as u64);
+        bar.set_message(format!("{} at {spp} spp", label(mode, denoise, packet)));
         let settings = RenderSettings {
             mode,
             denoise,
@@ -334,6 +335,7 @@ fn bench_scene(
         });
     }
 
+    bar.finish_and_clear();
     eprintln!("\rmeasuring {name}: scaling with threads and resolution          ");
     // Scaling of denoised ratio at 1 spp: one thread against all, and a
     // quarter of the pixels against the full frame.
