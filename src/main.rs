@@ -1,4 +1,4 @@
-//! The `penumbra` command line: render, view, bench, fit-ltc.
+//! The `penumbra` command line: render, view, bench, fit-ltc, compare.
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
@@ -30,6 +30,9 @@ enum Command {
     Bench(BenchArgs),
     /// Fit the LTC table for the project's GGX BRDF.
     FitLtc(FitArgs),
+    /// Measure an image against a reference (relMSE, FLIP, largest error).
+    /// Exit status: 0 within the limits, 1 above one, 2 on bad input.
+    Compare(CompareArgs),
 }
 
 #[derive(Args)]
@@ -178,9 +181,27 @@ struct FitArgs {
     heatmap: Option<PathBuf>,
 }
 
+#[derive(Args)]
+struct CompareArgs {
+    /// The image measured (.exr or .png).
+    test: PathBuf,
+    /// The reference (same size and format).
+    reference: PathBuf,
+    /// Write FLIP's error map to this PNG.
+    #[arg(long, value_name = "FILE.png")]
+    heatmap: Option<PathBuf>,
+    /// Exit 1 when relMSE is above this.
+    #[arg(long, value_name = "X")]
+    max_relmse: Option<f64>,
+    /// Exit 1 when mean FLIP is above this.
+    #[arg(long, value_name = "Y")]
+    max_flip: Option<f64>,
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Compare(a) => return cmd_compare(a),
         Command::Render(a) => cmd_render(a),
         Command::View(a) => penumbra::view::run(view_options(a)),
         Command::Bench(a) => cmd_bench(a),
@@ -418,4 +439,46 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
         println!("{}", path.display());
     }
     Ok(())
+}
+
+/// `compare`'s exit status when an image is above a limit; bad input
+/// exits 2, as clap does for bad arguments.
+const EXIT_ABOVE_LIMIT: u8 = 1;
+const EXIT_BAD_INPUT: u8 = 2;
+
+fn cmd_compare(a: CompareArgs) -> ExitCode {
+    use penumbra::compare::{self, Image, Limits};
+    let run = || -> Result<Vec<String>> {
+        for (name, v) in [("--max-relmse", a.max_relmse), ("--max-flip", a.max_flip)] {
+            if v.is_some_and(|v| !v.is_finite() || v < 0.0) {
+                bail!("{name} must be a finite number, at least 0");
+            }
+        }
+        let test = Image::load(&a.test)?;
+        let reference = Image::load(&a.reference)?;
+        let c = compare::compare(&test, &reference)?;
+        print!("{}", compare::format(&c));
+        if let Some(path) = &a.heatmap {
+            compare::write_heatmap(&test, &reference, path)?;
+            println!("{}", path.display());
+        }
+        let limits = Limits {
+            max_rel_mse: a.max_relmse,
+            max_flip: a.max_flip,
+        };
+        Ok(limits.exceeded(&c))
+    };
+    match run() {
+        Ok(above) if above.is_empty() => ExitCode::SUCCESS,
+        Ok(above) => {
+            for line in above {
+                eprintln!("penumbra: above the limit: {line}");
+            }
+            ExitCode::from(EXIT_ABOVE_LIMIT)
+        }
+        Err(e) => {
+            eprintln!("penumbra: {e:#}");
+            ExitCode::from(EXIT_BAD_INPUT)
+        }
+    }
 }

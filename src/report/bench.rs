@@ -343,14 +343,15 @@ fn bench_scene(
 
     let mut configs = Vec::new();
     let todo = opts.configs();
+    let bar = super::progress::bar(
+        todo.len() as u64,
+        format!("measuring {name}"),
+        "configurations",
+    );
     for (i, cfg) in todo.iter().enumerate() {
         let (mode, spp) = (cfg.mode, cfg.spp);
-        eprint!(
-            "\rmeasuring {name}: {} at {spp} spp ({}/{})          ",
-            cfg.label(),
-            i + 1,
-            todo.len()
-        );
+        bar.set_position(i as u64);
+        bar.set_message(format!("{} at {spp} spp", cfg.label()));
         let settings = cfg.settings();
         let m = bench.measure(&all, size, &settings, Some((&truth, &mask)));
         let frame_ms = frame_spread(&m.runs);
@@ -403,6 +404,7 @@ fn bench_scene(
         });
     }
 
+    bar.finish_and_clear();
     eprintln!("\rmeasuring {name}: scaling with threads and resolution          ");
     // Scaling of the shipped default: 1, 2, 4, ... threads up to all of
     // them, and a quarter of the pixels against the full frame.

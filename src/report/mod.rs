@@ -5,6 +5,7 @@ mod bench;
 mod ceiling;
 pub mod machine;
 pub mod plot;
+pub mod progress;
 pub mod reference;
 pub mod results;
 pub mod stats;

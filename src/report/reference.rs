@@ -10,7 +10,6 @@ use crate::render::{Frame, Mode, RenderSettings, World};
 use crate::scene::BUILTIN_SCENE_TOML;
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -176,6 +175,11 @@ pub fn reference(
     let mut frame = Frame::new(width, height);
     let start = Instant::now();
     let mut done = 0;
+    let bar = super::progress::bar(
+        u64::from(spp),
+        format!("reference {name} {width}x{height}"),
+        "spp",
+    );
     while done < spp {
         let pass = PASS_SPP.min(spp - done);
         let settings = RenderSettings {
@@ -187,16 +191,9 @@ pub fn reference(
         };
         frame.render(world, &camera, &settings);
         done += pass;
-        progress(
-            &name,
-            width,
-            height,
-            done,
-            spp,
-            start.elapsed().as_secs_f64(),
-        );
+        bar.set_position(u64::from(done));
     }
-    eprintln!();
+    bar.finish_and_clear();
     let render_seconds = start.elapsed().as_secs_f64();
     write_cached(&file, width, height, spp, &frame.color)?;
     Ok(Reference {
@@ -206,18 +203,4 @@ pub fn reference(
         reused: false,
         render_seconds,
     })
-}
-
-fn progress(name: &str, width: u32, height: u32, done: u32, total: u32, secs: f64) {
-    const BAR: usize = 30;
-    let filled = (BAR as u64 * done as u64 / total as u64) as usize;
-    let left = secs / done as f64 * (total - done) as f64;
-    let mut err = std::io::stderr().lock();
-    let _ = write!(
-        err,
-        "\rreference {name} {width}x{height} [{}{}] {done}/{total} spp, {secs:.0} s, ~{left:.0} s left ",
-        "#".repeat(filled),
-        ".".repeat(BAR - filled)
-    );
-    let _ = err.flush();
 }

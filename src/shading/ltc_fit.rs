@@ -50,7 +50,6 @@ use super::nelder_mead;
 use super::polygon::{Polygon, cosine_integral};
 use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
-use std::io::Write;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -567,23 +566,10 @@ pub fn fit_error_heatmap(table: &LtcTable, path: &Path) -> image::ImageResult<()
 pub fn run_fit(size: usize, out: &Path, heatmap: Option<&Path>) -> anyhow::Result<()> {
     anyhow::ensure!(size >= 2, "--size must be at least 2");
     let start = Instant::now();
-    let last = AtomicUsize::new(usize::MAX);
-    let table = fit_table(size, &|done, total| {
-        let pct = done * 100 / total;
-        if last.swap(pct, Ordering::Relaxed) != pct {
-            let bar = done * 40 / total;
-            let mut err = std::io::stderr().lock();
-            let _ = write!(
-                err,
-                "\r[{}{}] {pct:3}%",
-                "#".repeat(bar),
-                " ".repeat(40 - bar)
-            );
-            let _ = err.flush();
-        }
-    });
+    let bar = crate::report::progress::bar((size * size) as u64, "fit-ltc", "cells");
+    let table = fit_table(size, &|done, _| bar.set_position(done as u64));
+    bar.finish_and_clear();
     let secs = start.elapsed().as_secs_f64();
-    eprintln!();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }
