@@ -8,6 +8,15 @@ APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 
 .PHONY: run test test-embree4 deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun golden-bless
 
+# .cargo/config.toml builds for x86-64-v4 (AVX-512); on a CPU without it,
+# build for x86-64-v3 (AVX2 + FMA) instead. RUSTFLAGS replaces the file's flags.
+X86_64_V4 := avx512f avx512bw avx512cd avx512dq avx512vl
+ifneq ($(shell for f in $(X86_64_V4); do grep -qw $$f /proc/cpuinfo 2>/dev/null || echo no; done),)
+export RUSTFLAGS ?= -C target-cpu=x86-64-v3
+endif
+# valgrind cannot decode AVX-512: its runs use an x86-64-v3 build of their own.
+V3 := RUSTFLAGS="-C target-cpu=x86-64-v3" CARGO_TARGET_DIR=target/v3
+
 # Installs missing Debian packages when root or sudo is available.
 deps:
 	@missing=""; for p in $(APT_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
@@ -75,13 +84,12 @@ fuzz: deps
 # Small renders under valgrind memcheck: any invalid read or write, or leak
 # definitely lost, in any code fails the run (--error-exitcode). No
 # suppressions are needed with Debian's Embree 3.13 / TBB (see docs/robustness.md).
-# valgrind cannot decode AVX-512: PENUMBRA_SIMD=avx2 keeps the batched U on
-# its AVX2 kernels (src/shading/simd.rs; Embree picks its own ISA).
 VALGRIND := valgrind --tool=memcheck --error-exitcode=99 --errors-for-leak-kinds=definite --leak-check=full --track-origins=yes --num-callers=30
-memcheck: build
+memcheck: deps
+	$(V3) $(CARGO) build --release
 	mkdir -p out
-	PENUMBRA_SIMD=avx2 nice -n 19 $(VALGRIND) $(BIN) render --width 24 --height 16 --frames 2 --threads 2 --spp 2 --out out/memcheck.png
-	PENUMBRA_SIMD=avx2 nice -n 19 $(VALGRIND) $(BIN) render scenes/room.toml --mode reference --width 16 --height 12 --frames 2 --spp 2 --threads 2 --aov albedo,normal,depth,u,un,sn,ratio --out out/memcheck-room.exr
+	nice -n 19 $(VALGRIND) target/v3/release/penumbra render --width 24 --height 16 --frames 2 --threads 2 --spp 2 --out out/memcheck.png
+	nice -n 19 $(VALGRIND) target/v3/release/penumbra render scenes/room.toml --mode reference --width 16 --height 12 --frames 2 --spp 2 --threads 2 --aov albedo,normal,depth,u,un,sn,ratio --out out/memcheck-room.exr
 
 # Long runs with flat memory (not in `make test`): 5000 frames of `render` and
 # of the scripted viewer under Xvfb, at a small size; scripts/longrun.sh samples

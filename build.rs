@@ -63,11 +63,44 @@ fn find() -> Result<Found, String> {
     })
 }
 
+/// The AVX-512 features the build targets that the machine building it
+/// (and, natively, running it) lacks: such a binary would stop at its first
+/// AVX-512 instruction. `None` when cross-compiling or when all are there.
+fn missing_cpu_features() -> Option<String> {
+    let target = std::env::var("CARGO_CFG_TARGET_FEATURE").unwrap_or_default();
+    if std::env::var("HOST").ok() != std::env::var("TARGET").ok() {
+        return None;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        let have = |f: &str| match f {
+            "avx512f" => std::arch::is_x86_feature_detected!("avx512f"),
+            "avx512bw" => std::arch::is_x86_feature_detected!("avx512bw"),
+            "avx512cd" => std::arch::is_x86_feature_detected!("avx512cd"),
+            "avx512dq" => std::arch::is_x86_feature_detected!("avx512dq"),
+            "avx512vl" => std::arch::is_x86_feature_detected!("avx512vl"),
+            _ => true,
+        };
+        let missing: Vec<&str> = target.split(',').filter(|f| !have(f)).collect();
+        if !missing.is_empty() {
+            return Some(missing.join(", "));
+        }
+    }
+    let _ = target;
+    None
+}
+
 fn main() {
     println!("cargo:rerun-if-env-changed=EMBREE_DIR");
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo::rustc-check-cfg=cfg(embree3)");
     println!("cargo::rustc-check-cfg=cfg(embree4)");
+    if let Some(missing) = missing_cpu_features() {
+        println!(
+            "cargo::error=this build targets x86-64-v4 (.cargo/config.toml) but this CPU lacks {missing}: build with `make`, which then targets x86-64-v3, or set RUSTFLAGS=\"-C target-cpu=x86-64-v3\""
+        );
+        return;
+    }
 
     let found = match find() {
         Ok(found) => found,

@@ -10,8 +10,8 @@ use penumbra::render::{Frame, Mode, RenderSettings, World};
 use penumbra::scene::{BUILTIN_SCENE_TOML, Scene};
 use std::path::{Path, PathBuf};
 
-/// Small enough that the goldens stay under 1 MB in all (20 32-bit RGB
-/// EXRs, 540 KB), large enough for shadows and the denoiser's
+/// Small enough that the goldens stay under 1 MB in all (20 uncompressed
+/// 32-bit RGB EXRs of 43 KB), large enough for shadows and the denoiser's
 /// filters (5x5 taps at up to 16 pixels apart) to have room.
 const WIDTH: u32 = 80;
 const HEIGHT: u32 = 45;
@@ -25,11 +25,10 @@ const SEED: u32 = 7;
 const THREADS: usize = 2;
 
 /// relMSE a frame may be off its golden. The same build gives exactly 0
-/// (a frame is a pure function of its inputs, `render_determinism`), and
-/// so do the batched `U`'s baseline, AVX2 and AVX-512 kernels
-/// (`shading::simd`, `tests/simd.rs`). A rounding-level change (another
-/// compiler, another libm) can still move a sample's light choice in a
-/// pixel, which the denoiser spreads over its neighbours; a real change moves far more: a one percent brighter light
+/// (a frame is a pure function of its inputs, `render_determinism`). A
+/// rounding-level change (another compiler, another libm) can still move a
+/// sample's light choice in a pixel, which the denoiser spreads over its
+/// neighbours; a real change moves far more: a one percent brighter light
 /// gives 1.1e-5 on shadow-plane's ratio frame
 /// (`a_one_percent_brighter_light_fails_the_gate`), a uniform light share of
 /// 0.11 for 0.1 1.6e-6 to 7.9e-5 on the eight multi-light frames

@@ -6,10 +6,10 @@
 //! value: it needs ~1e-3, and eight lanes are one register as four `f64`
 //! are).
 //!
-//! Every operation is a fixed loop over the lanes, inlined always into the
-//! kernels of `simd`, which LLVM turns into vector instructions of the
-//! kernel's level (one AVX2 instruction for four `f64`, two SSE2 ones on the
-//! baseline level): no intrinsics, all safe Rust. Four `f64` lanes, not eight: eight `f64` (two
+//! Every operation is a fixed loop over the lanes, inlined always, which
+//! LLVM turns into vector instructions (one AVX2 instruction with the
+//! x86-64-v3 build of `.cargo/config.toml`, two SSE2 ones otherwise): no
+//! intrinsics, all safe Rust. Four `f64` lanes, not eight: eight `f64` (two
 //! registers per value) ran 1.26x slower per evaluation (register spills;
 //! criterion `unshadowed_batch/quad`, README). Comparisons give a mask of
 //! all-ones / all-zeros bit patterns, and a select picks per lane from that
@@ -209,15 +209,19 @@ impl<T: Elem, const L: usize> Lanes<T, L> {
         Lanes(each(|l| f(self.0[l], o.0[l])))
     }
 
-    /// `self * b + c`, fused (rounded once): one instruction in the AVX2
-    /// and AVX-512 kernels of `simd`, a library call per lane in the
-    /// baseline one, so that every level gives the same bits. The kernels
-    /// are compiled once per level from this one source, so a
-    /// `cfg(target_feature)` here would see the build's baseline target,
-    /// not the kernel's.
+    /// `self * b + c`: one fused instruction where the target has FMA;
+    /// a multiply and an add otherwise (`mul_add` would be a library
+    /// call per lane there).
     #[inline(always)]
     pub fn mul_add(self, b: Self, c: Self) -> Self {
-        Lanes(each(|l| self.0[l].mul_add(b.0[l], c.0[l])))
+        #[cfg(target_feature = "fma")]
+        {
+            Lanes(each(|l| self.0[l].mul_add(b.0[l], c.0[l])))
+        }
+        #[cfg(not(target_feature = "fma"))]
+        {
+            self * b + c
+        }
     }
 
     #[inline(always)]

@@ -8,7 +8,6 @@ pub mod ltc_correction;
 pub mod ltc_fit;
 pub mod nelder_mead;
 pub mod polygon;
-pub mod simd;
 pub mod u_batch;
 pub mod unshadowed;
 

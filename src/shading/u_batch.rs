@@ -138,14 +138,8 @@ impl PixelBatch {
     /// Across the lanes in `f32` (`Vec4`, one lane per element) with the
     /// scalar path's formulas in its order of operations, so every lane
     /// gets its pixel's frame, cell and constants bit for bit; converted to
-    /// `f64` lanes once at the end. Runs the instruction set `simd` selects.
+    /// `f64` lanes once at the end.
     pub fn new(points: &[Option<SurfacePoint>]) -> PixelBatch {
-        (super::simd::kernels().setup)(points)
-    }
-
-    /// `new` itself, inlined into each of `simd`'s kernels.
-    #[inline(always)]
-    pub(super) fn build(points: &[Option<SurfacePoint>]) -> PixelBatch {
         const { assert!(LANES == 4, "the setup runs on Vec4 lanes") };
         // Read in place (each field gathered once across the lanes); the
         // points themselves are copied once, into the batch.
@@ -321,19 +315,8 @@ pub struct LaneCounts {
 }
 
 /// (diffuse, specular) lobes of `light` for every lane of `batch`, as
-/// `unshadowed_lobes_prepared` gives them (zero for inactive lanes). Runs
-/// the instruction set `simd` selects.
+/// `unshadowed_lobes_prepared` gives them (zero for inactive lanes).
 pub fn lobes_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) -> LaneCounts {
-    (super::simd::kernels().lobes)(batch, light, out)
-}
-
-/// `lobes_batch` itself, inlined into each of `simd`'s kernels.
-#[inline(always)]
-pub(super) fn lobes_batch_inline(
-    batch: &PixelBatch,
-    light: &BatchLight,
-    out: &mut LaneLobes,
-) -> LaneCounts {
     match light.n {
         3 => lobes_n::<3, 4>(batch, light, out),
         4 => lobes_n::<4, 5>(batch, light, out),
@@ -851,10 +834,9 @@ fn lobes_n<const N: usize, const K: usize>(
 
 /// `shade` when some lane's light straddles its horizon (`straddle`): the
 /// batch integrates every lane's polygon in `K = N + 1` slots, those
-/// lanes' clipped. Inlined like the rest, so that it runs in the
-/// instruction set of the kernel it is in (`simd`): a function kept out
-/// of line is compiled once, for the build's baseline target.
-#[inline(always)]
+/// lanes' clipped. Kept out of line: the common batch, with no clip, runs
+/// `shade` inlined in `lobes_n` and is not slowed by this copy of it.
+#[inline(never)]
 fn shade_clipped<const N: usize, const K: usize>(
     b: &PixelBatch,
     light: &BatchLight,
@@ -905,21 +887,15 @@ fn shade<const K: usize>(
     let mut spec_err = [Wide::ZERO; 3];
     let lobe = fast.and(b.lobe);
     if lobe.any() {
-        // Two calls, not a closure called twice: LLVM keeps such a closure
-        // out of line, where it would run baseline code in every kernel of
-        // `simd` (closures cannot be marked `#[inline(always)]`).
-        let none = (Wide::ZERO, Wide::ZERO, Wide::ZERO);
-        let want_b = lobe.and(b.want_b);
-        let (sum_a, bnd_a, gain_a) = if lobe.any() {
-            ltc_sum(&b.ma, b.norm_a, q, e, &len_l, lobe)
-        } else {
-            none
+        let lobe_sum = |m, norm, want: Mask| {
+            if want.any() {
+                ltc_sum(m, norm, q, e, &len_l, want)
+            } else {
+                (Wide::ZERO, Wide::ZERO, Wide::ZERO)
+            }
         };
-        let (sum_b, bnd_b, gain_b) = if want_b.any() {
-            ltc_sum(&b.mb, b.norm_b, q, e, &len_l, want_b)
-        } else {
-            none
-        };
+        let (sum_a, bnd_a, gain_a) = lobe_sum(&b.ma, b.norm_a, lobe);
+        let (sum_b, bnd_b, gain_b) = lobe_sum(&b.mb, b.norm_b, lobe.and(b.want_b));
         let share_a = b.wa.mul_add(form_factor(sum_a), b.mix * ff);
         let share_b = b.wb.mul_add(form_factor(sum_b), b.fmix * ff);
         let mut centre = [Wide::ZERO; 3];
