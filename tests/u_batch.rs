@@ -248,8 +248,8 @@ fn lights_straddling_the_horizons_of_a_floor_take_the_fast_path() {
     // A wall light whose bottom edge is 0.3 above a floor whose shading
     // normals wobble by up to ~0.3 rad: it straddles the horizon of a large
     // share of the points (a quarter here). Those lanes are clipped in the
-    // batch; before session 7 each went to the scalar path (about four
-    // vector lanes' time apiece).
+    // batch; on the scalar path each would cost about four vector lanes'
+    // time.
     let mut rng = Rng(5);
     let light = polygon_light(
         vec3(0.0, 2.0, 1.0),

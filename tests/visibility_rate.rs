@@ -142,7 +142,9 @@ fn every_rate_renders_the_same_bytes_with_one_two_and_three_threads() {
 #[test]
 fn every_rate_renders_finite_frames_while_the_camera_moves() {
     let scene = common::load("room.toml");
-    let cams: Vec<Camera> = (0..FRAMES).map(|k| scene.camera.orbit(3.0 * k as f32)).collect();
+    let cams: Vec<Camera> = (0..FRAMES)
+        .map(|k| scene.camera.orbit(3.0 * k as f32))
+        .collect();
     for rate in VisibilityRate::ALL {
         for taa in [false, true] {
             for frame in render_frames(&scene, &settings(rate, taa), 2, &cams) {
@@ -233,8 +235,7 @@ fn check_sides(e: &Edge, what: &str) {
         let mut q = Quads::new(EDGE_W, EDGE_H);
         for j in 0..q.height {
             for i in 0..q.width {
-                let (x, y) =
-                    penumbra::render::quads::sampled_pixel(i, j, offset, EDGE_W, EDGE_H);
+                let (x, y) = penumbra::render::quads::sampled_pixel(i, j, offset, EDGE_W, EDGE_H);
                 let k = (y * EDGE_W + x) as usize;
                 let m = (j * q.width + i) as usize;
                 let g = &e.gbuf[k];
@@ -253,14 +254,26 @@ fn check_sides(e: &Edge, what: &str) {
         };
         let n = (EDGE_W * EDGE_H) as usize;
         let (mut un, mut sn, mut orphans) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
-        upsample(&full, &q, &vec![Vec3::ONE; n], &mut un, &mut sn, &mut orphans);
+        upsample(
+            &full,
+            &q,
+            &vec![Vec3::ONE; n],
+            &mut un,
+            &mut sn,
+            &mut orphans,
+        );
         for k in 0..n {
             if orphans.contains(&(k as u32)) {
                 continue;
             }
             let x = k as u32 % EDGE_W;
             let want = if x < EDGE_X { un[k] } else { Vec3::ZERO };
-            assert_eq!(sn[k], want, "{what}, offset {offset:?}, pixel ({x}, {})", k as u32 / EDGE_W);
+            assert_eq!(
+                sn[k],
+                want,
+                "{what}, offset {offset:?}, pixel ({x}, {})",
+                k as u32 / EDGE_W
+            );
             assert!(un[k].x > 0.0, "{what}: pixel {k} got no signal");
         }
     }
@@ -311,7 +324,14 @@ fn upsampling_fills_every_pixel_of_a_plane() {
     };
     let n = (EDGE_W * EDGE_H) as usize;
     let (mut un, mut sn, mut orphans) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
-    upsample(&full, &q, &vec![Vec3::ONE; n], &mut un, &mut sn, &mut orphans);
+    upsample(
+        &full,
+        &q,
+        &vec![Vec3::ONE; n],
+        &mut un,
+        &mut sn,
+        &mut orphans,
+    );
     assert!(orphans.is_empty(), "orphans on a plane: {orphans:?}");
     assert!(un.iter().all(|u| u.x > 0.0));
 }

@@ -217,7 +217,6 @@ impl PhaseClock {
     }
 }
 
-
 /// The buffers of a frame, one entry per pixel, row-major, row 0 at the top.
 pub struct Frame {
     pub width: u32,
@@ -437,7 +436,11 @@ impl Frame {
         };
         let (width, height) = (self.width, self.height);
         let quarter = plan.rate == VisibilityRate::Quarter;
-        if quarter && self.quads.as_ref().is_none_or(|q| q.source.len() != quad_count(width, height))
+        if quarter
+            && self
+                .quads
+                .as_ref()
+                .is_none_or(|q| q.source.len() != quad_count(width, height))
         {
             self.quads = Some(Quads::new(width, height));
         }
@@ -582,7 +585,14 @@ impl Frame {
             gbuf: &self.gbuf,
             lobe: &self.guide.lobe,
         };
-        quads::upsample(&full, q, &self.u, &mut self.un, &mut self.sn, &mut self.orphans);
+        quads::upsample(
+            &full,
+            q,
+            &self.u,
+            &mut self.un,
+            &mut self.sn,
+            &mut self.orphans,
+        );
         if self.orphans.is_empty() {
             return;
         }
@@ -735,7 +745,12 @@ fn quad_count(width: u32, height: u32) -> usize {
 
 /// The samples of pixels no quad vouched for: `U` per light (for the
 /// light choice) by the scalar path, then the plan's estimator.
-fn orphan_samples(job: &BandJob, gbuf: &[GSample], u: &[Vec3], chunk: &[u32]) -> Vec<(u32, Vec3, Vec3)> {
+fn orphan_samples(
+    job: &BandJob,
+    gbuf: &[GSample],
+    u: &[Vec3],
+    chunk: &[u32],
+) -> Vec<(u32, Vec3, Vec3)> {
     let Some(est) = job.estimator else {
         return Vec::new();
     };
@@ -765,7 +780,9 @@ fn orphan_samples(job: &BandJob, gbuf: &[GSample], u: &[Vec3], chunk: &[u32]) ->
         );
         out.push((k, un, Vec3::ZERO));
     }
-    batch.trace(&world.rt, job.packet, |r| out[r.slot as usize].2 += r.weight);
+    batch.trace(&world.rt, job.packet, |r| {
+        out[r.slot as usize].2 += r.weight
+    });
     job.clock
         .shadow_rays
         .fetch_add(batch.rays.len() as u64, Ordering::Relaxed);

@@ -68,7 +68,10 @@ impl Quads {
 /// The pixel quad `(i, j)` samples with `offset`, clamped into the frame.
 #[inline]
 pub fn sampled_pixel(i: u32, j: u32, offset: (u32, u32), width: u32, height: u32) -> (u32, u32) {
-    ((2 * i + offset.0).min(width - 1), (2 * j + offset.1).min(height - 1))
+    (
+        (2 * i + offset.0).min(width - 1),
+        (2 * j + offset.1).min(height - 1),
+    )
 }
 
 /// Where a quad's sample was in the previous frame, in quad coordinates:
@@ -145,13 +148,7 @@ pub fn upsample(
 /// The weighted average of the ratios of the 3x3 quads around pixel
 /// `(x, y)`, or `None` where none of them sampled the pixel's surface.
 #[inline]
-fn gather(
-    full: &FullRes,
-    quads: &Quads,
-    spatial: &SpatialWeights,
-    x: u32,
-    y: u32,
-) -> Option<Vec3> {
+fn gather(full: &FullRes, quads: &Quads, spatial: &SpatialWeights, x: u32, y: u32) -> Option<Vec3> {
     let k = (y * full.width + x) as usize;
     let g = &full.gbuf[k];
     let lobe = &full.lobe[k];

@@ -160,7 +160,11 @@ pub fn label(mode: Mode, denoise: bool, packet: PacketWidth, rate: VisibilityRat
         VisibilityRate::Full => "",
         VisibilityRate::Quarter => " 1/4",
     };
-    format!("{}{}{rate}{width}", mode.name(), if dn { "+dn" } else { "" })
+    format!(
+        "{}{}{rate}{width}",
+        mode.name(),
+        if dn { "+dn" } else { "" }
+    )
 }
 
 /// The shipped default's label (`RenderSettings::default()`).

@@ -150,7 +150,12 @@ fn scene(out: &mut String, s: &SceneReport) {
 /// alone takes for the same rays: its camera rays, and the ceiling's shadow
 /// rays scaled to the number this configuration traced.
 fn stage_split(out: &mut String, s: &SceneReport) {
-    let Some(ceiling) = s.ceilings.iter().find(|c| c.spp == 1).or(s.ceilings.first()) else {
+    let Some(ceiling) = s
+        .ceilings
+        .iter()
+        .find(|c| c.spp == 1)
+        .or(s.ceilings.first())
+    else {
         return;
     };
     let pixels = ceiling.camera_rays.max(1) as f64;
@@ -164,7 +169,15 @@ fn stage_split(out: &mut String, s: &SceneReport) {
     let _ = writeln!(
         out,
         "{:<18} {:>7} {:>7} {:>15} {:>7} {:>8} {:>7} {:>7} {:>7}",
-        "config", "primary", "U", "shadow (Embree)", "denoise", "upsample", "compose", "resolve", "frame"
+        "config",
+        "primary",
+        "U",
+        "shadow (Embree)",
+        "denoise",
+        "upsample",
+        "compose",
+        "resolve",
+        "frame"
     );
     for c in &s.configs {
         let st = &c.stages_ms;

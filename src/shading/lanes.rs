@@ -11,7 +11,7 @@
 //! x86-64-v3 build of `.cargo/config.toml`, two SSE2 ones otherwise): no
 //! intrinsics, all safe Rust. Four `f64` lanes, not eight: eight `f64` (two
 //! registers per value) ran 1.26x slower per evaluation (register spills;
-//! criterion `unshadowed_batch/quad`, README). Comparisons give a mask of
+//! criterion `unshadowed_batch/quad`, docs/performance.md). Comparisons give a mask of
 //! all-ones / all-zeros bit patterns, and a select picks per lane from that
 //! mask (one blend instruction; written as a bitwise and/or it took three),
 //! so lanes never branch.

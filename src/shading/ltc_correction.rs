@@ -358,11 +358,11 @@ pub fn lobe_factors_lanes<const N: usize>(
 /// sums. Without AVX-512, `std::hint::black_box`: LLVM otherwise grows its
 /// vectors from the four-lane ends (the `f64` inputs, the per-pixel sums)
 /// and runs the whole node in two 4-wide halves (296 against 178
-/// instructions per evaluation, `u_profile` under callgrind, session 6).
+/// instructions per evaluation, `u_profile` under callgrind; docs/performance.md).
 /// With AVX-512 (the shipped `x86-64-v4` build), whose 32 registers hold
 /// either shape, the values pass as they are: the stores and reloads that
 /// `black_box` forces cost more there than the halves (`u_profile 40`,
-/// min of 7 alternated runs: 78.8 against 76.5 ns per evaluation, session 7).
+/// min of 7 alternated runs: 78.8 against 76.5 ns per evaluation; docs/performance.md).
 #[inline(always)]
 fn shaped<T>(x: T) -> T {
     #[cfg(target_feature = "avx512f")]

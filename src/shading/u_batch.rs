@@ -377,8 +377,9 @@ fn inv_len(v: &Wide3) -> Wide {
 const POLY_ERR_F64: E = 3e-9;
 
 /// `polygon::THETA_SIN_POLY` in every lane, as whole vectors. (Meant to let
-/// the multiply-adds read them from memory; session 6's instruction profile
-/// shows LLVM still broadcasts each one before use, and copies of them as
+/// the multiply-adds read them from memory; the instruction profile
+/// (`u_profile` under callgrind) shows LLVM still broadcasts each one before
+/// use, and copies of them as
 /// run-time data traded those broadcasts for more register moves.)
 static THETA_SIN_WIDE: [Wide; 11] = {
     let p = super::polygon::THETA_SIN_POLY;
@@ -511,7 +512,7 @@ fn lambert_sum<const N: usize>(
     let edges = Unclipped { q, e, inv: &inv };
     // The cosines again, for the correction: LLVM shares them with the sum
     // below (making the edges once into arrays instead cost 2 % more
-    // instructions, u_profile, session 6).
+    // instructions, `u_profile` under callgrind).
     let dots: [Wide; N] = std::array::from_fn(|i| edges.edge(i).0);
     let (sum, bound) = sum_terms(&edges, live);
     let u: [Wide3; N] =

@@ -83,7 +83,11 @@ impl Session {
     /// Takes a shown frame's time; under a target frame rate, rescales the
     /// render when the controller says so.
     pub fn hold_frame_rate(&mut self, frame_seconds: f64) {
-        if self.dynamic.as_mut().is_some_and(|d| d.observe(frame_seconds)) {
+        if self
+            .dynamic
+            .as_mut()
+            .is_some_and(|d| d.observe(frame_seconds))
+        {
             let (w, h) = self.render_size();
             self.resize(w, h);
         }
@@ -238,7 +242,9 @@ impl Session {
             mode,
             denoise: uses_denoiser.then_some(self.settings.denoise),
             taa: (mode != Mode::Reference).then_some(self.settings.taa),
-            visibility: FramePlan::of(&self.settings).denoise.then_some(self.settings.visibility),
+            visibility: FramePlan::of(&self.settings)
+                .denoise
+                .then_some(self.settings.visibility),
             scale: self.dynamic.as_ref().map(|d| d.scale()),
             spp: self.settings.spp,
             accumulated: (mode == Mode::Reference).then_some(self.accumulated),

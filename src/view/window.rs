@@ -4,8 +4,8 @@
 
 use super::input::{Action, FrameInput};
 use super::present;
-use super::script::{Player, SCRIPT_DT, Script};
 use super::scale::DynamicScale;
+use super::script::{Player, SCRIPT_DT, Script};
 use super::session::Session;
 use crate::embree::{self, Device};
 use crate::render::{Mode, RenderSettings, VisibilityRate, World};
@@ -63,7 +63,10 @@ pub fn run(opts: ViewOptions) -> Result<()> {
     if opts.frames == Some(0) {
         bail!("--frames must be at least 1");
     }
-    if opts.target_fps.is_some_and(|f| DynamicScale::new(f).is_none()) {
+    if opts
+        .target_fps
+        .is_some_and(|f| DynamicScale::new(f).is_none())
+    {
         bail!("--target-fps must be a positive number of frames per second");
     }
     if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
