@@ -178,7 +178,7 @@ fn gather(full: &FullRes, quads: &Quads, spatial: &SpatialWeights, x: u32, y: u3
             if lobe.sharpness > 0.0 {
                 wt *= (-LOBE_SCALE * lobe.separation2(&quads.guide.lobe[q])).exp();
             }
-            if !(wt > 0.0) {
+            if wt.is_nan() || wt <= 0.0 {
                 continue;
             }
             wsum += wt;
