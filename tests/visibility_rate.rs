@@ -88,7 +88,7 @@ fn render_frames(
 #[test]
 fn a_region_no_occluder_touches_equals_u_exactly_at_every_rate() {
     let scene = scene();
-    let cams = vec![scene.camera; FRAMES as usize];
+    let cams = [scene.camera; FRAMES as usize];
     for rate in VisibilityRate::ALL {
         // Without the resolve the colour is `U · ratio` of this frame.
         let frames = render_frames(&scene, &settings(rate, false), 2, &cams);
@@ -172,13 +172,13 @@ fn a_camera_move_leaves_no_ghost_beyond_a_few_frames() {
     let after = scene.camera;
     for rate in VisibilityRate::ALL {
         let s = settings(rate, true);
-        let truth = render_frames(&scene, &s, 2, &vec![after; CONVERGED_FRAMES as usize])
+        let truth = render_frames(&scene, &s, 2, &[after; CONVERGED_FRAMES as usize])
             .pop()
             .expect("frames");
         let mut path = vec![before; 8];
         path.extend(std::iter::repeat_n(after, GHOST_FRAMES + 1));
         let moved = render_frames(&scene, &s, 2, &path);
-        let fresh = render_frames(&scene, &s, 2, &vec![after; GHOST_FRAMES + 1]);
+        let fresh = render_frames(&scene, &s, 2, &[after; GHOST_FRAMES + 1]);
         let err = |f: &Frame| penumbra::report::stats::rel_mse(&f.color, &truth.color);
         let (e_moved, e_fresh) = (err(&moved[8 + GHOST_FRAMES]), err(&fresh[GHOST_FRAMES]));
         assert!(
