@@ -75,6 +75,8 @@ impl Readout {
 
     fn visibility_words(&self) -> String {
         match self.visibility {
+            // Short words: the first line must fit a 320-pixel window.
+            Some(VisibilityRate::Quarter) => "  VIS 1/4".to_string(),
             Some(r) => format!("  VIS {}", r.name().to_uppercase()),
             None => String::new(),
         }
@@ -232,7 +234,7 @@ mod tests {
         let lines = readout().lines();
         assert_eq!(
             lines[0],
-            "RATIO  DENOISE ON  TAA ON  VIS QUARTER  2 SPP  320X180"
+            "RATIO  DENOISE ON  TAA ON  VIS 1/4  2 SPP  320X180"
         );
         assert_eq!(lines[1], "MS RENDER 25.0 DENOISE 4.0 PRESENT 1.0");
         assert_eq!(lines[2], "25.0 FPS  80.0 MRAYS/S  SPEED 2.50  H HELP");
