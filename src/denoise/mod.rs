@@ -37,6 +37,7 @@ use std::time::Instant;
 
 pub use lobe::Lobe;
 pub use resolve::{CameraMotion, Resolve, ResolveSettings};
+pub use spatial::falloff;
 pub use tiles::TILE;
 
 /// Per-pixel guides the renderer fills each frame (row-major, row 0 on top).

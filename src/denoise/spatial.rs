@@ -23,7 +23,7 @@ const KERNEL: [f32; 3] = [0.25, 0.5, 0.25];
 /// Cheap monotone stand-in for exp(-e): (1 - e/8)^8, exactly 0 from e = 8.
 /// A true exp per tap costs more than the rest of the tap together.
 #[inline]
-fn falloff(e: f32) -> f32 {
+pub fn falloff(e: f32) -> f32 {
     let t = (1.0 - e * 0.125).max(0.0);
     let t2 = t * t;
     let t4 = t2 * t2;

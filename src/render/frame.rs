@@ -11,6 +11,7 @@ use super::plan::{Composite, FramePlan, ResolveInput, VisibilityRate};
 use super::primary::{PACKET_H, PixelOffset, trace_rows};
 use super::quads::{self, FullRes, QUAD_ORDER, Quads};
 use super::shadow::{PacketWidth, ShadowBatch};
+use super::solo::SoloHistory;
 use super::world::World;
 use crate::denoise::{
     CameraMotion, DenoiseSettings, Denoiser, Resolve, ResolveSettings, luminance,
@@ -235,8 +236,10 @@ pub struct Frame {
     guide: Guides,
     /// Quad-resolution visibility (allocated on the first reduced-rate frame).
     quads: Option<Quads>,
-    /// Surface pixels no quad vouched for this frame (see `quads`).
+    /// Surface pixels that sampled themselves this frame (see `quads`,
+    /// `solo`), and their samples' history.
     orphans: Vec<u32>,
+    solo: Option<SoloHistory>,
     denoiser: Denoiser,
     /// The rate the denoiser's history was built at.
     history_rate: Option<VisibilityRate>,
@@ -274,6 +277,7 @@ impl Frame {
             guide: Guides::new(width, height),
             quads: None,
             orphans: Vec::new(),
+            solo: None,
             denoiser: Denoiser::new(width, height),
             history_rate: None,
             resolve: Resolve::new(width, height),
@@ -293,7 +297,8 @@ impl Frame {
     }
 
     /// Surface pixels that drew their own samples in the last reduced-rate
-    /// frame because no quad around them sampled their surface.
+    /// frame: no quad around them sampled their surface, or their lobe is
+    /// too narrow for a neighbour's samples to stand in for theirs.
     pub fn orphan_count(&self) -> usize {
         self.orphans.len()
     }
@@ -301,6 +306,9 @@ impl Frame {
     /// Forgets history: the next frame starts accumulation afresh.
     pub fn reset_history(&mut self) {
         self.denoiser.reset();
+        if let Some(s) = self.solo.as_mut() {
+            s.reset();
+        }
         self.resolve.reset();
         self.jitter_index = 0;
         self.accum.clear();
@@ -336,6 +344,9 @@ impl Frame {
         if plan.denoise && self.history_rate != Some(plan.rate) {
             // A history built at another rate describes other pixels.
             self.denoiser.reset();
+            if let Some(s) = self.solo.as_mut() {
+                s.reset();
+            }
             self.history_rate = Some(plan.rate);
         }
         let clock = PhaseClock::default();
@@ -440,13 +451,16 @@ impl Frame {
             && self
                 .quads
                 .as_ref()
-                .is_none_or(|q| q.source.len() != quad_count(width, height))
+                .is_none_or(|q| q.un.len() != quad_count(width, height))
         {
             self.quads = Some(Quads::new(width, height));
         }
         let quad_offset = QUAD_ORDER[(self.frame_index % 4) as usize];
         // Taken out while the bands borrow the frame's buffers.
         let mut quad_buffers = self.quads.take();
+        if let Some(q) = quad_buffers.as_mut() {
+            q.offset = quad_offset;
+        }
         let mut quad_bands = quad_buffers
             .as_mut()
             .filter(|_| quarter)
@@ -567,7 +581,8 @@ impl Frame {
     }
 
     /// Brings the denoised quad signals to every pixel; the pixels no quad
-    /// vouched for draw their own samples (undenoised) this frame.
+    /// vouched for, and the sharp-lobed ones, draw their own samples, which
+    /// their own history averages over frames (`solo`).
     fn upsample(
         &mut self,
         world: &World,
@@ -580,8 +595,13 @@ impl Frame {
         let Some(q) = self.quads.as_ref() else {
             return;
         };
+        let solo = self
+            .solo
+            .get_or_insert_with(|| SoloHistory::new(self.width, self.height));
+        solo.begin_frame();
         let full = FullRes {
             width: self.width,
+            height: self.height,
             gbuf: &self.gbuf,
             lobe: &self.guide.lobe,
         };
@@ -613,9 +633,11 @@ impl Frame {
             .par_chunks(ORPHAN_CHUNK)
             .flat_map_iter(|chunk| orphan_samples(&job, &self.gbuf, &self.u, chunk))
             .collect();
-        for (k, un, sn) in samples {
-            self.un[k as usize] = un;
-            self.sn[k as usize] = sn;
+        if let Some(solo) = self.solo.as_mut() {
+            for (k, un, sn) in samples {
+                let k = k as usize;
+                (self.un[k], self.sn[k]) = solo.accumulate(k, &self.gbuf[k], un, sn);
+            }
         }
     }
 
@@ -794,7 +816,6 @@ struct QuadBand<'a> {
     un: &'a mut [Vec3],
     sn: &'a mut [Vec3],
     u: &'a mut [Vec3],
-    source: &'a mut [u32],
     guide: GuideMut<'a>,
 }
 
@@ -806,12 +827,10 @@ fn quad_bands(q: &mut Quads) -> Vec<QuadBand<'_>> {
     q.un.chunks_mut(n)
         .zip(q.sn.chunks_mut(n))
         .zip(q.u.chunks_mut(n))
-        .zip(q.source.chunks_mut(n))
-        .map(|(((un, sn), u), source)| QuadBand {
+        .map(|((un, sn), u)| QuadBand {
             un,
             sn,
             u,
-            source,
             guide: guides.next().expect("guides have the same bands"),
         })
         .collect()
@@ -840,7 +859,6 @@ fn sample_quads(
             let m = (dj * qw + i) as usize;
             let g = &band.gbuf[k];
             q.u[m] = band.u[k];
-            q.source[m] = y * width + x;
             let prev = quads::quad_prev_pixel(g, x, y, i, qj0 + dj);
             q.guide.set(m, g, scratch.spec_share[k], prev);
             sampled.push(k);

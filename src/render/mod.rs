@@ -9,6 +9,7 @@ pub mod plan;
 pub mod primary;
 pub mod quads;
 pub mod shadow;
+pub mod solo;
 pub mod world;
 
 pub use frame::{Frame, PhaseTimes, RenderSettings};

@@ -10,7 +10,7 @@
 use super::estimate::ratio;
 use super::gbuffer::{GSample, PixelKind};
 use super::guides::Guides;
-use crate::denoise::Lobe;
+use crate::denoise::{Lobe, falloff};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -33,6 +33,9 @@ const MAX_DEPTH_CHANGE: f32 = 0.1;
 const MIN_NORMAL_DOT: f32 = 0.9;
 /// Lobe edge-stopping, as in the denoiser's spatial filter.
 const LOBE_SCALE: f32 = 10.0;
+/// A pixel whose neighbour's lobe weight (`exp(-LOBE_SCALE x separation^2)`)
+/// falls below `e^-SHARP_SEPARATION` samples itself (see `sharp`).
+const SHARP_SEPARATION: f32 = 1.0;
 
 /// Quad-resolution signals and guides, and which pixel each quad sampled.
 pub struct Quads {
@@ -43,8 +46,8 @@ pub struct Quads {
     pub u: Vec<Vec3>,
     pub un: Vec<Vec3>,
     pub sn: Vec<Vec3>,
-    /// Full-resolution index of each quad's sampled pixel.
-    pub source: Vec<u32>,
+    /// Which pixel of its quad each quad sampled (`QUAD_ORDER`).
+    pub offset: (u32, u32),
 }
 
 impl Quads {
@@ -60,7 +63,7 @@ impl Quads {
             u: vec![Vec3::ZERO; n],
             un: vec![Vec3::ZERO; n],
             sn: vec![Vec3::ZERO; n],
-            source: vec![0; n],
+            offset: QUAD_ORDER[0],
         }
     }
 }
@@ -87,6 +90,7 @@ pub fn quad_prev_pixel(g: &GSample, x: u32, y: u32, i: u32, j: u32) -> Vec2 {
 /// What upsampling reads of the full-resolution frame.
 pub struct FullRes<'a> {
     pub width: u32,
+    pub height: u32,
     pub gbuf: &'a [GSample],
     pub lobe: &'a [Lobe],
 }
@@ -94,12 +98,18 @@ pub struct FullRes<'a> {
 /// Brings the denoised quad ratios to every pixel (see the module docs):
 /// pixel `k` gets `un[k] = u[k]`, its own analytic `U`, and `sn[k]` that
 /// times the weighted average of the quads' denoised ratios `S_N / U_N`.
-/// The ratios are averaged, not the signals: a neighbour's `U_N` may be a
-/// highlight's, many times the pixel's, and would outweigh every other tap.
-/// Where every tap's ratio is exactly 1 the average is exactly 1 (the
-/// weighted sum of ones is the sum of the weights), so `sn[k] == un[k]`.
-/// Surface pixels no quad vouches for are listed in `orphans` (in pixel
-/// order) and left at zero; pixels off surfaces get zero.
+/// The quads' signals are averaged and their ratio taken, not the ratios
+/// averaged: the signals are scaled by 1 / U of their sampled pixel (see
+/// `sample_quads`), so no highlight outweighs the other taps, and a tap
+/// whose samples carry little of its `U` (a light sample far off a
+/// near-mirror's lobe, whose own ratio is 0 or 1 whatever its weight)
+/// counts as little as its `U_N`. Where every tap's `S_N` equals its `U_N`
+/// the ratio is exactly 1, so `sn[k] == un[k]`.
+/// Surface pixels no quad vouches for, and those with a lobe too narrow
+/// for any quad to stand in for them (`sharp`), are listed in `orphans`
+/// (in pixel order) and left at zero: they sample themselves
+/// (`super::solo`); even a fresh history's one sample describes such a
+/// pixel better than its neighbours do. Pixels off surfaces get zero.
 pub fn upsample(
     full: &FullRes,
     quads: &Quads,
@@ -124,6 +134,10 @@ pub fn upsample(
                     sn_row[x] = Vec3::ZERO;
                     continue;
                 }
+                if sharp(full, x, y) {
+                    lost.push(k as u32);
+                    continue;
+                }
                 match gather(full, quads, &spatial, x as u32, y as u32) {
                     Some(r) => {
                         un_row[x] = u[k];
@@ -145,6 +159,29 @@ pub fn upsample(
     }
 }
 
+/// Whether pixel `(x, y)`'s specular lobe is so narrow that its right or
+/// lower neighbour on the same surface looks at other directions (the
+/// neighbour's lobe weight below `e^-SHARP_SEPARATION`): what such a pixel
+/// sees of a shadow changes from pixel to pixel, and a quad that sampled
+/// a neighbour cannot tell it.
+#[inline]
+fn sharp(full: &FullRes, x: usize, y: usize) -> bool {
+    let w = full.width as usize;
+    let k = y * w + x;
+    let lobe = &full.lobe[k];
+    if lobe.sharpness <= 0.0 {
+        return false;
+    }
+    let depth = full.gbuf[k].depth;
+    let apart = |n: usize| {
+        let g = &full.gbuf[n];
+        g.kind == PixelKind::Surface
+            && (g.depth - depth).abs() <= MAX_DEPTH_CHANGE * depth
+            && LOBE_SCALE * lobe.separation2(&full.lobe[n]) > SHARP_SEPARATION
+    };
+    (x + 1 < w && apart(k + 1)) || (k + w < full.gbuf.len() && apart(k + w))
+}
+
 /// The weighted average of the ratios of the 3x3 quads around pixel
 /// `(x, y)`, or `None` where none of them sampled the pixel's surface.
 #[inline]
@@ -153,7 +190,7 @@ fn gather(full: &FullRes, quads: &Quads, spatial: &SpatialWeights, x: u32, y: u3
     let g = &full.gbuf[k];
     let lobe = &full.lobe[k];
     let (qi, qj) = (x / 2, y / 2);
-    let (mut wsum, mut sum) = (0.0f32, Vec3::ZERO);
+    let (mut wsum, mut un, mut sn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
     for j in qj.saturating_sub(1)..=(qj + 1).min(quads.height - 1) {
         for i in qi.saturating_sub(1)..=(qi + 1).min(quads.width - 1) {
             let q = (j * quads.width + i) as usize;
@@ -172,22 +209,22 @@ fn gather(full: &FullRes, quads: &Quads, spatial: &SpatialWeights, x: u32, y: u3
             if plane > PLANE_TOLERANCE * g.depth {
                 continue;
             }
-            let s = quads.source[q];
-            let (sx, sy) = (s % full.width, s / full.width);
+            let (sx, sy) = sampled_pixel(i, j, quads.offset, full.width, full.height);
             let mut wt = spatial.at(sx as i32 - x as i32, sy as i32 - y as i32);
             if lobe.sharpness > 0.0 {
-                wt *= (-LOBE_SCALE * lobe.separation2(&quads.guide.lobe[q])).exp();
+                wt *= falloff(LOBE_SCALE * lobe.separation2(&quads.guide.lobe[q]));
             }
             if wt.is_nan() || wt <= 0.0 {
                 continue;
             }
             wsum += wt;
-            sum += ratio(quads.sn[q], quads.un[q]) * wt;
+            un += quads.un[q] * wt;
+            sn += quads.sn[q] * wt;
         }
     }
-    // `sum / wsum`, not `sum * (1 / wsum)`: where every ratio is 1 the
-    // quotient of two equal numbers is exactly 1.
-    (wsum > 0.0).then(|| sum / wsum)
+    // Where every tap's `S_N` equals its `U_N` the two sums are the same
+    // sums of the same numbers, and their ratio is exactly 1.
+    (wsum > 0.0).then(|| ratio(sn, un))
 }
 
 /// The spatial weight of every tap offset within `REACH`, computed once
