@@ -101,6 +101,20 @@ struct RenderArgs {
     /// Extra EXR images beside --out: albedo, normal, depth, u, un, sn, ratio.
     #[arg(long, default_value = "")]
     aov: String,
+    /// After the last frame, print every sample pixel X,Y drew in it (light,
+    /// strategy, pdfs, weight, visibility) and the frame's values there.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    debug_pixel: Option<(u32, u32)>,
+}
+
+/// `X,Y` as two pixel coordinates.
+fn parse_pixel(s: &str) -> std::result::Result<(u32, u32), String> {
+    let bad = || format!("\"{s}\" is not a pixel X,Y (two whole numbers from 0, e.g. 320,180)");
+    let (x, y) = s.split_once(',').ok_or_else(bad)?;
+    Ok((
+        x.trim().parse().map_err(|_| bad())?,
+        y.trim().parse().map_err(|_| bad())?,
+    ))
 }
 
 #[derive(Args)]
@@ -276,6 +290,9 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     let per_frame = FramePattern::new(&a.out, a.frames);
     let scene = load_scene(c.scene.as_deref())?;
     let (w, h) = frame_size(&scene, c.width, c.height)?;
+    if let Some((x, y)) = a.debug_pixel.filter(|&(x, y)| x >= w || y >= h) {
+        bail!("--debug-pixel {x},{y} lies outside the {w}x{h} frame");
+    }
     let device = Device::new().context("starting Embree")?;
     let camera = scene.camera;
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
@@ -304,6 +321,11 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     })?;
     if per_frame.is_none() {
         written = output::write_frame(&a.out, &frame, c.exposure, &aovs)?;
+    }
+    if let Some((x, y)) = a.debug_pixel {
+        let replay = penumbra::render::replay::replay_pixel(&world, &frame, &settings, x, y)
+            .map_err(anyhow::Error::msg)?;
+        print!("{}", replay.report(&world));
     }
     if let Some(t) = last {
         eprintln!(

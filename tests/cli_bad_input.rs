@@ -250,3 +250,12 @@ fn a_good_scene_renders_through_the_same_path() {
     );
     assert!(out.exists());
 }
+
+#[test]
+fn debug_pixel_outside_the_frame_is_one_message_naming_the_frame() {
+    assert_cli_refuses(
+        &[("scene.toml", &scene(""))],
+        &["--width", "8", "--height", "8", "--debug-pixel", "8,2"],
+        &["--debug-pixel 8,2", "8x8"],
+    );
+}

@@ -155,23 +155,117 @@ pub enum Estimator {
     AreaVisibility,
 }
 
-/// Draws `spp` samples for one pixel, adds their weights to `un`, and queues
-/// their shadow rays in `batch` (to be added to `S_N` when unoccluded).
-#[allow(clippy::too_many_arguments)]
+/// Where a pixel's samples lie in its sequence: every random number of a
+/// sample is a function of (pixel, sample index, dimension, seed), so these
+/// four numbers replay the pixel's samples exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SampleStream {
+    /// Index of the pixel in the frame, row-major.
+    pub pixel: u32,
+    /// Index of the first sample drawn.
+    pub first: u32,
+    /// How many samples are drawn.
+    pub count: u32,
+    pub seed: u32,
+}
+
+/// Where a pixel's drawn samples go: weights add to `un`, shadow rays queue
+/// in `batch` tagged with `slot`, and with `trace` every sample is recorded
+/// (the pixel replay).
+pub struct SampleSink<'a> {
+    pub un: &'a mut Vec3,
+    pub batch: &'a mut ShadowBatch,
+    pub slot: u32,
+    pub trace: Option<&'a mut Vec<SampleRecord>>,
+}
+
+/// How a sample chose its direction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Strategy {
+    /// A point on the light (MIS light strategy).
+    Light,
+    /// The BRDF's lobes (MIS BRDF strategy).
+    Brdf,
+    /// A uniform point on the light's area (soft-shadow).
+    Area,
+}
+
+/// One sample of a pixel as the estimator saw it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleRecord {
+    /// Index in the pixel's sequence.
+    pub index: u32,
+    pub light: usize,
+    /// Probability of choosing `light`.
+    pub p_choose: f32,
+    /// Probability of the light strategy (1 for soft-shadow).
+    pub p_light_strategy: f32,
+    pub strategy: Strategy,
+    /// Direction to the light and distance to its surface (0 when none).
+    pub wi: Vec3,
+    pub dist: f32,
+    /// Solid-angle pdfs of the light and BRDF strategies, and of the
+    /// one-sample MIS mixture.
+    pub pdf_light: f32,
+    pub pdf_brdf: f32,
+    pub pdf: f32,
+    /// BRDF value (times nothing: cosine and radiance are in `weight`).
+    pub f: Vec3,
+    /// What the sample adds to `U_N`, and to `S_N` when its shadow ray is
+    /// unoccluded.
+    pub weight: Vec3,
+    /// Why it added nothing (`None`: it queued a shadow ray).
+    pub dropped: Option<&'static str>,
+}
+
+impl SampleRecord {
+    fn new(index: u32, light: usize, p_choose: f32, strategy: Strategy) -> SampleRecord {
+        SampleRecord {
+            index,
+            light,
+            p_choose,
+            p_light_strategy: 1.0,
+            strategy,
+            wi: Vec3::ZERO,
+            dist: 0.0,
+            pdf_light: 0.0,
+            pdf_brdf: 0.0,
+            pdf: 0.0,
+            f: Vec3::ZERO,
+            weight: Vec3::ZERO,
+            dropped: None,
+        }
+    }
+}
+
+impl SampleSink<'_> {
+    #[inline]
+    fn record(&mut self, r: impl FnOnce() -> SampleRecord) {
+        if let Some(t) = self.trace.as_deref_mut() {
+            t.push(r());
+        }
+    }
+}
+
+/// Draws `stream.count` samples for one pixel into `sink`: their weights
+/// add to `U_N`, their shadow rays (to be added to `S_N` when unoccluded)
+/// queue in its batch.
 pub fn draw_samples(
     world: &World,
     g: &GSample,
     per_light: &[Vec3],
     u_total: Vec3,
     estimator: Estimator,
-    stream: (u32, u32, u32),
-    spp: u32,
-    pixel_slot: u32,
-    un: &mut Vec3,
-    batch: &mut ShadowBatch,
+    stream: SampleStream,
+    sink: &mut SampleSink,
 ) {
-    let (pixel, first_sample, seed) = stream;
-    if g.kind != PixelKind::Surface || world.scene.lights.is_empty() {
+    let SampleStream {
+        pixel,
+        first,
+        count: spp,
+        seed,
+    } = stream;
+    if g.kind != PixelKind::Surface || world.scene.lights.is_empty() || spp == 0 {
         return;
     }
     let inv_spp = 1.0 / spp as f32;
@@ -191,7 +285,7 @@ pub fn draw_samples(
     let mut cached_light = usize::MAX;
     let mut cached: Option<LightSampler> = None;
     for s in 0..spp {
-        let index = first_sample.wrapping_add(s);
+        let index = first.wrapping_add(s);
         let (li, p_choose) = pick_light(per_light, sample_1d(pixel, index, DIM_LIGHT, seed));
         let light = &world.scene.lights[li];
         let dir_u = sample_2d(pixel, index, DIM_DIR, seed);
@@ -199,13 +293,25 @@ pub fn draw_samples(
             let q = sample_light_area_uniform(light, dir_u);
             let to = q - g.position;
             let dist = to.length();
+            let base = || SampleRecord::new(index, li, p_choose, Strategy::Area);
             if !(dist > 0.0 && dist.is_finite()) {
+                sink.record(|| SampleRecord {
+                    dropped: Some("the light point is the shading point"),
+                    ..base()
+                });
                 continue;
             }
             let wi = to / dist;
             let w = u_total * inv_spp;
-            *un += w;
-            batch.push(ShadowRay::new(shadow_origin(g), wi, dist, pixel_slot, w));
+            *sink.un += w;
+            sink.batch
+                .push(ShadowRay::new(shadow_origin(g), wi, dist, sink.slot, w));
+            sink.record(|| SampleRecord {
+                wi,
+                dist,
+                weight: w,
+                ..base()
+            });
             continue;
         }
         if cached_light != li {
@@ -213,28 +319,51 @@ pub fn draw_samples(
             cached = LightSampler::new(&world.prepared[li], g.position);
         }
         let Some(sampler) = cached.as_ref() else {
+            sink.record(|| SampleRecord {
+                dropped: Some("the light is behind the point or degenerate"),
+                ..SampleRecord::new(index, li, p_choose, Strategy::Light)
+            });
             continue;
         };
         let p_light_strategy =
             light_strategy_probability(p_spec, lobe_solid_angle, sampler.solid_angle());
         let use_light = sample_1d(pixel, index, DIM_STRATEGY, seed) < p_light_strategy;
-        let (wi, dist, pdf_light) = if use_light {
-            match sampler.sample(dir_u) {
-                Some(ls) => (ls.wi, ls.dist, ls.pdf),
-                None => continue,
-            }
+        let strategy = if use_light {
+            Strategy::Light
+        } else {
+            Strategy::Brdf
+        };
+        let base = || SampleRecord {
+            p_light_strategy,
+            ..SampleRecord::new(index, li, p_choose, strategy)
+        };
+        let picked = if use_light {
+            sampler.sample(dir_u).map(|ls| (ls.wi, ls.dist, ls.pdf))
         } else {
             let lobe = sample_1d(pixel, index, DIM_LOBE, seed);
-            let Some(bs) = sample_brdf(n, wo, alpha, p_spec, lobe, dir_u) else {
-                continue;
-            };
-            match sampler.pdf(bs.wi) {
-                Some((pdf, d)) => (bs.wi, d, pdf),
-                None => continue,
-            }
+            sample_brdf(n, wo, alpha, p_spec, lobe, dir_u)
+                .and_then(|bs| sampler.pdf(bs.wi).map(|(pdf, d)| (bs.wi, d, pdf)))
+        };
+        let Some((wi, dist, pdf_light)) = picked else {
+            sink.record(|| SampleRecord {
+                dropped: Some(if use_light {
+                    "no point of the light was sampled"
+                } else {
+                    "the BRDF direction misses the light"
+                }),
+                ..base()
+            });
+            continue;
         };
         let cos = n.dot(wi);
         if cos <= 0.0 {
+            sink.record(|| SampleRecord {
+                wi,
+                dist,
+                pdf_light,
+                dropped: Some("below the shading normal's horizon"),
+                ..base()
+            });
             continue;
         }
         let wi_l = frame.to_local(wi);
@@ -244,16 +373,37 @@ pub fn draw_samples(
             0.0
         };
         let pdf = p_light_strategy * pdf_light + (1.0 - p_light_strategy) * pdf_brdf;
-        if !(pdf > 0.0 && pdf.is_finite()) {
-            continue;
-        }
         let f = eval_local(wi_l, wo_l, g.diffuse, g.specular, g.roughness);
         let w = f * light.radiance * (cos * inv_spp / (p_choose * pdf));
-        if !w.is_finite() || w.max_element() <= 0.0 {
+        let full = || SampleRecord {
+            wi,
+            dist,
+            pdf_light,
+            pdf_brdf,
+            pdf,
+            f,
+            weight: w,
+            ..base()
+        };
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            sink.record(|| SampleRecord {
+                dropped: Some("zero or non-finite pdf"),
+                weight: Vec3::ZERO,
+                ..full()
+            });
             continue;
         }
-        *un += w;
-        batch.push(ShadowRay::new(shadow_origin(g), wi, dist, pixel_slot, w));
+        if !w.is_finite() || w.max_element() <= 0.0 {
+            sink.record(|| SampleRecord {
+                dropped: Some("zero or non-finite weight"),
+                ..full()
+            });
+            continue;
+        }
+        *sink.un += w;
+        sink.batch
+            .push(ShadowRay::new(shadow_origin(g), wi, dist, sink.slot, w));
+        sink.record(full);
     }
 }
 

@@ -4,7 +4,9 @@
 //! composite and the temporal resolve. State that outlives a frame
 //! (histories, previous camera, reference accumulation) lives here too.
 
-use super::estimate::{Estimator, analytic_u_band, draw_samples, ratio, surface_point};
+use super::estimate::{
+    Estimator, SampleSink, SampleStream, analytic_u_band, draw_samples, ratio, surface_point,
+};
 use super::gbuffer::GSample;
 use super::guides::{GuideMut, Guides};
 use super::plan::{Composite, FramePlan, ResolveInput, VisibilityRate};
@@ -80,6 +82,16 @@ struct BandJob<'a, 'd> {
 }
 
 impl BandJob<'_, '_> {
+    /// The samples pixel `pixel` draws this frame.
+    fn stream(&self, pixel: u32) -> SampleStream {
+        SampleStream {
+            pixel,
+            first: self.first_sample,
+            count: self.spp,
+            seed: self.seed,
+        }
+    }
+
     /// Primary rays and `U` per light for the band starting at row `y0`.
     /// Returns the time it finished, for the next stage's clock.
     fn primary_and_u(
@@ -137,11 +149,13 @@ impl BandJob<'_, '_> {
                 &scratch.per_light[k * lights..(k + 1) * lights],
                 u[k],
                 est,
-                (y0 * width + k as u32, self.first_sample, self.seed),
-                self.spp,
-                m as u32,
-                &mut un[m],
-                &mut scratch.batch,
+                self.stream(y0 * width + k as u32),
+                &mut SampleSink {
+                    un: &mut un[m],
+                    batch: &mut scratch.batch,
+                    slot: m as u32,
+                    trace: None,
+                },
             );
         }
         scratch
@@ -301,6 +315,12 @@ impl Frame {
     /// too narrow for a neighbour's samples to stand in for theirs.
     pub fn orphan_count(&self) -> usize {
         self.orphans.len()
+    }
+
+    /// Whether surface pixel `k` drew its own samples in the last
+    /// reduced-rate frame (see `orphan_count`).
+    pub fn sampled_itself(&self, k: usize) -> bool {
+        self.orphans.binary_search(&(k as u32)).is_ok()
     }
 
     /// Forgets history: the next frame starts accumulation afresh.
@@ -794,11 +814,13 @@ fn orphan_samples(
             &per_light,
             u[k as usize],
             est,
-            (k, job.first_sample, job.seed),
-            job.spp,
-            m as u32,
-            &mut un,
-            &mut batch,
+            job.stream(k),
+            &mut SampleSink {
+                un: &mut un,
+                batch: &mut batch,
+                slot: m as u32,
+                trace: None,
+            },
         );
         out.push((k, un, Vec3::ZERO));
     }

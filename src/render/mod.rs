@@ -8,6 +8,7 @@ pub mod mode;
 pub mod plan;
 pub mod primary;
 pub mod quads;
+pub mod replay;
 pub mod shadow;
 pub mod solo;
 pub mod world;
