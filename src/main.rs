@@ -71,6 +71,12 @@ struct SceneArgs {
     /// G-buffer's edges). `U` is evaluated at every pixel either way.
     #[arg(long, default_value = "full")]
     visibility_rate: VisibilityRate,
+    /// Under a still camera, 8x8 tiles whose visibility has settled
+    /// (exactly lit or in umbra over 8 frames of history) draw no shadow
+    /// rays, each refreshed one frame in 8 (denoised ratio, full rate):
+    /// on | off.
+    #[arg(long, default_value = "on")]
+    settle: Switch,
     /// Exposure in stops for PNG and the window.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
@@ -304,6 +310,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         denoise: c.denoise == Switch::On,
         taa: c.taa == Switch::On,
         visibility: c.visibility_rate,
+        settle: c.settle == Switch::On,
         ..RenderSettings::default()
     };
     let mut frame = Frame::new(w, h);
@@ -386,6 +393,7 @@ fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {
         denoise: a.common.denoise == Switch::On,
         taa: a.common.taa == Switch::On,
         visibility: a.common.visibility_rate,
+        settle: a.common.settle == Switch::On,
         exposure: a.common.exposure,
         overlay: a.overlay == Switch::On,
         target_fps: a.target_fps,

@@ -33,6 +33,7 @@ mod temporal;
 mod tiles;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use std::time::Instant;
 
 pub use lobe::Lobe;
@@ -255,6 +256,51 @@ impl Denoiser {
         sn: &mut [Vec3],
         settings: &DenoiseSettings,
     ) -> DenoiseStats {
+        self.denoise_sparse(guide, un, sn, &[], settings)
+    }
+
+    /// The tiles (`TILE` x `TILE`, row-major) that need no new samples: after
+    /// the last call they and their 8 neighbours are exactly lit or exactly
+    /// in umbra, and every pixel of theirs holds at least `min_history`
+    /// frames. Per tile its class (nonzero) or 0; empty before the first
+    /// call or after a size change.
+    pub fn settled_tiles(&self, min_history: f32) -> Vec<u8> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let tw = self.tiles.columns();
+        if self.prev.meta.len() != w * h || self.tiles.count() == 0 {
+            return Vec::new();
+        }
+        // After a call the freshest history sits in `prev`.
+        let meta = &self.prev.meta;
+        (0..self.tiles.count())
+            .into_par_iter()
+            .map(|t| {
+                let (tx, ty) = (t % tw, t / tw);
+                if !self.tiles.skipped(tx, ty) {
+                    return 0;
+                }
+                let long = (ty * TILE..((ty + 1) * TILE).min(h)).all(|y| {
+                    (tx * TILE..((tx + 1) * TILE).min(w)).all(|x| {
+                        let m = &meta[y * w + x];
+                        m.depth <= 0.0 || m.len >= min_history
+                    })
+                });
+                if long { self.tiles.class(t) } else { 0 }
+            })
+            .collect()
+    }
+
+    /// `denoise` where the tiles `unsampled` marks (as `settled_tiles`
+    /// gives them) drew no samples this frame: their pixels keep their
+    /// history as it is.
+    pub fn denoise_sparse(
+        &mut self,
+        guide: &GuideBuffers,
+        un: &mut [Vec3],
+        sn: &mut [Vec3],
+        unsampled: &[u8],
+        settings: &DenoiseSettings,
+    ) -> DenoiseStats {
         let n = guide.width as usize * guide.height as usize;
         assert!(
             guide.position.len() == n
@@ -290,6 +336,11 @@ impl Denoiser {
             &mut self.row_class,
             un,
             sn,
+            if unsampled.len() == self.tiles.count() {
+                unsampled
+            } else {
+                &[]
+            },
             settings,
         );
         let t1 = Instant::now();

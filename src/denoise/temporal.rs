@@ -56,6 +56,7 @@ pub(crate) fn accumulate(
     row_class: &mut [u8],
     un: &mut [Vec3],
     sn: &mut [Vec3],
+    unsampled: &[u8],
     settings: &DenoiseSettings,
 ) {
     let w = guide.width as usize;
@@ -91,8 +92,18 @@ pub(crate) fn accumulate(
                     raw[x] = 1.0;
                     continue;
                 }
-                let u_in = sanitize(un[x]);
-                let s_in = sanitize(sn[x]);
+                // A pixel of a tile that drew no samples this frame keeps its
+                // history; lacking one (its surface just changed under the
+                // jitter) it takes its tile's class, exact 1 or exact 0.
+                let skipped = unsampled
+                    .get((y / TILE) * tw + x / TILE)
+                    .copied()
+                    .unwrap_or(0);
+                let (u_in, s_in) = match skipped {
+                    0 => (sanitize(un[x]), sanitize(sn[x])),
+                    tiles::DARK => (sanitize(guide.u[i]), Vec3::ZERO),
+                    _ => (sanitize(guide.u[i]), sanitize(guide.u[i])),
+                };
                 let r = ratio(u_in, s_in);
                 let lu = luminance(guide.u[i]);
                 let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
@@ -117,6 +128,7 @@ pub(crate) fn accumulate(
                     None
                 };
                 let (acc_u, acc_s, m1, m2, len) = match hist {
+                    Some(h) if skipped != 0 => (h.un, h.sn, h.m1, h.m2, h.len),
                     Some(h) => {
                         let len = (h.len + 1.0).min(cap);
                         // alpha = max(1 / (len_prev + 1), 1 / cap), the same for

@@ -14,8 +14,8 @@ use rayon::prelude::*;
 /// Tile edge in pixels.
 pub const TILE: usize = 8;
 
-const LIT: u8 = 1;
-const DARK: u8 = 2;
+pub(crate) const LIT: u8 = 1;
+pub(crate) const DARK: u8 = 2;
 /// Class bits of an empty tile (or row of a tile): compatible with both.
 pub(crate) const UNIFORM: u8 = LIT | DARK;
 
@@ -52,6 +52,13 @@ impl Tiles {
     #[inline]
     pub fn skipped(&self, tx: usize, ty: usize) -> bool {
         self.skip[ty * self.tw + tx]
+    }
+
+    /// The class bits of tile `t` (`LIT`, `DARK`, both for an empty tile,
+    /// 0 for a mixed one) from the last `classify`.
+    #[inline]
+    pub fn class(&self, t: usize) -> u8 {
+        self.class[t]
     }
 
     /// Combines the per-row classes of each tile (`row_class`: one byte per

@@ -16,7 +16,7 @@ use super::shadow::{PacketWidth, ShadowBatch};
 use super::solo::SoloHistory;
 use super::world::World;
 use crate::denoise::{
-    CameraMotion, DenoiseSettings, Denoiser, Resolve, ResolveSettings, luminance,
+    CameraMotion, DenoiseSettings, Denoiser, Resolve, ResolveSettings, TILE, luminance,
 };
 use crate::sampling::sequence::frame_jitter;
 use crate::scene::{Camera, CameraFrame, Light};
@@ -48,6 +48,10 @@ pub struct RenderSettings {
     /// Which pixels draw visibility samples each frame (denoised ratio and
     /// soft-shadow; every other plan samples every pixel).
     pub visibility: VisibilityRate,
+    /// Under a still camera, tiles whose visibility has settled (exactly
+    /// lit or in umbra, with a long history) draw no samples, but for a
+    /// periodic refresh (denoised, full rate).
+    pub settle: bool,
 }
 
 impl Default for RenderSettings {
@@ -60,6 +64,7 @@ impl Default for RenderSettings {
             denoise: true,
             taa: true,
             visibility: VisibilityRate::default(),
+            settle: true,
         }
     }
 }
@@ -118,9 +123,9 @@ impl BandJob<'_, '_> {
         PhaseClock::add(&clock.u, t)
     }
 
-    /// Samples and shadow rays of the band's pixels `pixels` (indices into
-    /// the band, whose first row is `y0`); sample `m` adds to `un[m]` and,
-    /// when its shadow ray is unoccluded, to `sn[m]`.
+    /// Samples and shadow rays of the band's pixels `pixels`, pairs of an
+    /// index into the band (whose first row is `y0`) and the slot `m` its
+    /// samples add to: `un[m]` and, when unoccluded, `sn[m]`.
     #[allow(clippy::too_many_arguments)]
     fn samples(
         &self,
@@ -128,7 +133,7 @@ impl BandJob<'_, '_> {
         scratch: &mut BandScratch,
         gbuf: &[GSample],
         u: &[Vec3],
-        pixels: impl Iterator<Item = usize>,
+        pixels: impl Iterator<Item = (usize, usize)>,
         un: &mut [Vec3],
         sn: &mut [Vec3],
         since: Instant,
@@ -142,7 +147,7 @@ impl BandJob<'_, '_> {
         let lights = world.scene.lights.len();
         scratch.batch.clear();
         let width = self.cam.width;
-        for (m, k) in pixels.enumerate() {
+        for (k, m) in pixels {
             draw_samples(
                 world,
                 &gbuf[k],
@@ -178,7 +183,8 @@ impl BandJob<'_, '_> {
         sn: &mut [Vec3],
     ) -> Instant {
         let t = self.primary_and_u(y0, scratch, gbuf, u);
-        self.samples(y0, scratch, gbuf, u, 0..gbuf.len(), un, sn, t)
+        let n = gbuf.len();
+        self.samples(y0, scratch, gbuf, u, (0..n).map(|k| (k, k)), un, sn, t)
     }
 }
 
@@ -384,7 +390,16 @@ impl Frame {
         if plan.reference {
             self.render_reference(world, &cam, settings, &clock);
         } else {
-            self.band_pass(world, (&cam, &prev), offset, settings, &plan, &clock);
+            let unsampled = self.settled_tiles(&plan, motion);
+            self.band_pass(
+                world,
+                (&cam, &prev),
+                offset,
+                settings,
+                &plan,
+                &unsampled,
+                &clock,
+            );
             if plan.denoise {
                 let t = Instant::now();
                 // Under a still, jittered camera `U` changes between frames
@@ -394,6 +409,7 @@ impl Frame {
                 self.denoise(
                     plan.rate,
                     plan.resolve.is_none() || motion == CameraMotion::Moved,
+                    &unsampled,
                 );
                 denoise = t.elapsed().as_secs_f64();
                 if plan.rate == VisibilityRate::Quarter {
@@ -444,6 +460,7 @@ impl Frame {
 
     /// The band pass: primary rays, `U`, samples and shadow rays at the
     /// plan's rate, the guides, and (when nothing is denoised) the colour.
+    #[allow(clippy::too_many_arguments)]
     fn band_pass(
         &mut self,
         world: &World,
@@ -451,6 +468,7 @@ impl Frame {
         offset: PixelOffset,
         settings: &RenderSettings,
         plan: &FramePlan,
+        unsampled: &[u8],
         clock: &PhaseClock,
     ) {
         let job = BandJob {
@@ -500,15 +518,18 @@ impl Frame {
                         t = sample_quads(&job, scratch, &mut band, &mut q, quad_offset, t);
                     }
                     None => {
+                        let (w, row0) = (width as usize, band.y0 as usize);
+                        let tiles_w = w.div_ceil(TILE);
+                        // Settled tiles draw nothing this frame (`settled_tiles`).
+                        let drawn = (0..n)
+                            .filter(|&k| {
+                                let (x, y) = (k % w, row0 + k / w);
+                                unsampled.is_empty()
+                                    || unsampled[(y / TILE) * tiles_w + x / TILE] == 0
+                            })
+                            .map(|k| (k, k));
                         t = job.samples(
-                            band.y0,
-                            scratch,
-                            band.gbuf,
-                            band.u,
-                            0..n,
-                            band.un,
-                            band.sn,
-                            t,
+                            band.y0, scratch, band.gbuf, band.u, drawn, band.un, band.sn, t,
                         );
                     }
                 }
@@ -581,7 +602,27 @@ impl Frame {
             .collect()
     }
 
-    fn denoise(&mut self, rate: VisibilityRate, light_test: bool) {
+    /// The tiles that draw no samples this frame: under a still camera,
+    /// those the denoiser found settled (exactly lit or in umbra, with a
+    /// long history), less the ones whose turn it is to refresh: each
+    /// settled tile draws again one frame in `REFRESH_PERIOD`, at a phase
+    /// of its own, so a change the history missed is seen within that
+    /// many frames. Per tile its class, 0 where samples are drawn.
+    fn settled_tiles(&self, plan: &FramePlan, motion: CameraMotion) -> Vec<u8> {
+        if !plan.settle || motion != CameraMotion::Still {
+            return Vec::new();
+        }
+        let mut tiles = self.denoiser.settled_tiles(SETTLED_HISTORY);
+        for (t, class) in tiles.iter_mut().enumerate() {
+            let phase = (t as u32).wrapping_mul(0x9E37_79B9) >> 28;
+            if self.frame_index.wrapping_add(phase).is_multiple_of(REFRESH_PERIOD) {
+                *class = 0;
+            }
+        }
+        tiles
+    }
+
+    fn denoise(&mut self, rate: VisibilityRate, light_test: bool, unsampled: &[u8]) {
         let settings = DenoiseSettings {
             light_test,
             ..DenoiseSettings::default()
@@ -594,8 +635,13 @@ impl Frame {
             }
             _ => {
                 let guide = self.guide.buffers(&self.u);
-                self.denoiser
-                    .denoise(&guide, &mut self.un, &mut self.sn, &settings);
+                self.denoiser.denoise_sparse(
+                    &guide,
+                    &mut self.un,
+                    &mut self.sn,
+                    unsampled,
+                    &settings,
+                );
             }
         }
     }
@@ -778,6 +824,11 @@ impl Frame {
     }
 }
 
+/// Frames of history every pixel of a tile needs before the tile may draw
+/// no samples, and how often a settled tile draws them again.
+const SETTLED_HISTORY: f32 = 8.0;
+const REFRESH_PERIOD: u32 = 8;
+
 /// Orphan pixels per parallel work item.
 const ORPHAN_CHUNK: usize = 64;
 
@@ -891,7 +942,7 @@ fn sample_quads(
         scratch,
         band.gbuf,
         band.u,
-        sampled.iter().copied(),
+        sampled.iter().enumerate().map(|(m, &k)| (k, m)),
         q.un,
         q.sn,
         since,

@@ -97,6 +97,9 @@ pub struct FramePlan {
     /// whole noise, not only visibility's, then drives the filter).
     pub filter_against_u: bool,
     pub composite: Composite,
+    /// Settled tiles draw no samples under a still camera (full rate,
+    /// denoised).
+    pub settle: bool,
     /// Per-frame camera jitter and the temporal resolve; `None`: neither.
     pub resolve: Option<ResolveInput>,
 }
@@ -132,6 +135,7 @@ impl FramePlan {
             denoise,
             filter_against_u: denoise && composite == Composite::Stochastic,
             composite,
+            settle: s.settle && denoise && rate == VisibilityRate::Full,
             resolve,
         }
     }

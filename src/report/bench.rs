@@ -73,6 +73,7 @@ impl BenchOptions {
             spp,
             packet: PacketWidth::Sixteen,
             rate: VisibilityRate::Full,
+            still: Still::Short,
         };
         let mut c = Vec::new();
         for mode in [Mode::Ratio, Mode::Stochastic] {
@@ -102,6 +103,14 @@ impl BenchOptions {
                 });
             }
         }
+        // A camera held still for long: every tile sampled, and settled
+        // tiles left alone (`RenderSettings::settle`).
+        for still in [Still::Long, Still::Settled] {
+            c.push(Config {
+                still,
+                ..plain(Mode::Ratio, true, 1)
+            });
+        }
         c.push(plain(Mode::Unshadowed, false, 1));
         c.retain(|c| self.only.is_empty() || self.only.iter().any(|l| *l == c.label()));
         c
@@ -116,11 +125,40 @@ struct Config {
     spp: u32,
     packet: PacketWidth,
     rate: VisibilityRate,
+    still: Still,
 }
+
+/// How long the camera has been still when a configuration is measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Still {
+    /// One warm-up frame.
+    Short,
+    /// `LONG_WARMUP` warm-up frames, every tile sampled.
+    Long,
+    /// `LONG_WARMUP` warm-up frames, settled tiles drawing no samples (as
+    /// shipped).
+    Settled,
+}
+
+/// Warm-up frames of the long still-camera rows: past the history a tile
+/// needs to settle (8 frames), so the measured frames show the steady state.
+const LONG_WARMUP: u32 = 16;
 
 impl Config {
     fn label(&self) -> String {
-        label(self.mode, self.denoise, self.packet, self.rate)
+        let base = label(self.mode, self.denoise, self.packet, self.rate);
+        match self.still {
+            Still::Short => base,
+            Still::Long => format!("{base} still"),
+            Still::Settled => format!("{base} settled"),
+        }
+    }
+
+    fn warmup(&self) -> u32 {
+        match self.still {
+            Still::Short => 1,
+            Still::Long | Still::Settled => LONG_WARMUP,
+        }
     }
 
     fn settings(&self) -> RenderSettings {
@@ -134,6 +172,9 @@ impl Config {
             // the median over frames), so their frames stand alone; the
             // denoised rows run as shipped, jitter and resolve included.
             taa: self.denoise && self.mode != Mode::Unshadowed,
+            // As shipped (a tile settles only after 8 frames, past the short
+            // rows' frames), but for the row that samples every tile.
+            settle: self.still != Still::Long,
             ..RenderSettings::default()
         }
     }
@@ -207,7 +248,8 @@ pub fn run(scenes: &[Option<PathBuf>], opts: &BenchOptions) -> Result<BenchRepor
                 "relMSE = mean((x-ref)^2/(ref^2+1e-2)) over pixels and channels, static camera; \
                  undenoised: median over the {} measured frames (each a single-frame estimate); \
                  denoised: the last frame, i.e. frame {} of a static camera with temporal history \
-                 (rel_mse_first_frame: frame 1, no history)",
+                 (rel_mse_first_frame: frame 1, no history); rows marked still or settled: \
+                 after {LONG_WARMUP} warm-up frames instead of one",
                 opts.frames,
                 opts.frames + 1
             ),
@@ -231,16 +273,19 @@ struct Bench<'a, 'd> {
 }
 
 impl Bench<'_, '_> {
-    /// One warm-up frame, then `frames` measured ones, of a static camera.
+    /// `warmup` frames, then `frames` measured ones, of a static camera.
     fn measure(
         &self,
         pool: &rayon::ThreadPool,
         (width, height): (u32, u32),
         settings: &RenderSettings,
+        warmup: u32,
         truth: Option<(&[Vec3], &[bool])>,
     ) -> Measured {
         let mut frame = Frame::new(width, height);
-        pool.install(|| frame.render(self.world, &self.camera, settings));
+        for _ in 0..warmup.max(1) {
+            pool.install(|| frame.render(self.world, &self.camera, settings));
+        }
         let error =
             |f: &Frame| truth.map(|(r, m)| (rel_mse(&f.color, r), rel_mse_masked(&f.color, r, m)));
         let first_frame_error = error(&frame).map(|e| e.0);
@@ -357,7 +402,7 @@ fn bench_scene(
         bar.set_position(i as u64);
         bar.set_message(format!("{} at {spp} spp", cfg.label()));
         let settings = cfg.settings();
-        let m = bench.measure(&all, size, &settings, Some((&truth, &mask)));
+        let m = bench.measure(&all, size, &settings, cfg.warmup(), Some((&truth, &mask)));
         let frame_ms = frame_spread(&m.runs);
         let stage = |f: fn(&PhaseTimes) -> f64| {
             median(&m.runs.iter().map(f).collect::<Vec<_>>()) / threads as f64 * 1e3
@@ -418,7 +463,7 @@ fn bench_scene(
         .iter()
         .find(|c| c.label == shipped && c.spp == scaled.spp)
         .map(|c| c.frame_ms)
-        .unwrap_or_else(|| frame_spread(&bench.measure(&all, size, &scaled, None).runs));
+        .unwrap_or_else(|| frame_spread(&bench.measure(&all, size, &scaled, 1, None).runs));
     let mut thread_points = Vec::new();
     for t in thread_counts(threads) {
         if t == threads {
@@ -431,7 +476,7 @@ fn bench_scene(
             let pool = embree::thread_pool(t)?;
             thread_points.push(ThreadPoint {
                 threads: t,
-                frame_ms: frame_spread(&bench.measure(&pool, size, &scaled, None).runs),
+                frame_ms: frame_spread(&bench.measure(&pool, size, &scaled, 1, None).runs),
                 ceiling_ms: ceiling_for(scaled.spp, &pool, t),
             });
         }
@@ -440,7 +485,7 @@ fn bench_scene(
     let thread_speedup = first.frame_ms.median / last.frame_ms.median;
     let ceiling_speedup = first.ceiling_ms / last.ceiling_ms;
     let half = ((opts.width / 2).max(8), (opts.height / 2).max(8));
-    let half_ms = frame_spread(&bench.measure(&all, half, &scaled, None).runs);
+    let half_ms = frame_spread(&bench.measure(&all, half, &scaled, 1, None).runs);
     let resolution: Vec<ResolutionPoint> = [(size, full), (half, half_ms)]
         .into_iter()
         .map(|((w, h), ms)| ResolutionPoint {

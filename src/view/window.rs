@@ -29,6 +29,8 @@ pub struct ViewOptions {
     pub taa: bool,
     /// Which pixels draw visibility samples (`RenderSettings::visibility`).
     pub visibility: VisibilityRate,
+    /// Settled tiles draw no samples under a still camera (`RenderSettings::settle`).
+    pub settle: bool,
     pub exposure: f32,
     /// Scale the render resolution to hold this frame rate (the window
     /// stretches the frame to its size).
@@ -91,6 +93,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         denoise: opts.denoise,
         taa: opts.taa,
         visibility: opts.visibility,
+        settle: opts.settle,
         ..RenderSettings::default()
     };
     let mut session = Session::new(settings, &camera, w, h, opts.exposure, opts.overlay);
