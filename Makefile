@@ -8,10 +8,17 @@ APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 
 .PHONY: run test test-embree4 deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun golden-bless
 
-# .cargo/config.toml builds for x86-64-v4 (AVX-512); on a CPU without it,
-# build for x86-64-v3 (AVX2 + FMA) instead. RUSTFLAGS replaces the file's flags.
+# The instruction set `make` builds for: the best level this machine runs,
+# x86-64-v4 (AVX-512) or else x86-64-v3 (AVX2, FMA) or else baseline x86-64.
+# A plain `cargo build` targets baseline x86-64 and runs on any x86-64, at
+# about 1.5x the frame time (docs/performance.md, *Build target*). A
+# RUSTFLAGS given by the caller wins.
 X86_64_V4 := avx512f avx512bw avx512cd avx512dq avx512vl
-ifneq ($(shell for f in $(X86_64_V4); do grep -qw $$f /proc/cpuinfo 2>/dev/null || echo no; done),)
+X86_64_V3 := avx2 fma bmi1 bmi2 movbe f16c
+cpu_has = $(if $(shell for f in $(1); do grep -qw $$f /proc/cpuinfo 2>/dev/null || echo no; done),,yes)
+ifeq ($(call cpu_has,$(X86_64_V4)),yes)
+export RUSTFLAGS ?= -C target-cpu=x86-64-v4
+else ifeq ($(call cpu_has,$(X86_64_V3)),yes)
 export RUSTFLAGS ?= -C target-cpu=x86-64-v3
 endif
 # valgrind cannot decode AVX-512: its runs use an x86-64-v3 build of their own.

@@ -97,7 +97,7 @@ fn main() {
     println!("cargo::rustc-check-cfg=cfg(embree4)");
     if let Some(missing) = missing_cpu_features() {
         println!(
-            "cargo::error=this build targets x86-64-v4 (.cargo/config.toml) but this CPU lacks {missing}: build with `make`, which then targets x86-64-v3, or set RUSTFLAGS=\"-C target-cpu=x86-64-v3\""
+            "cargo::error=this build targets AVX-512 (RUSTFLAGS) but this CPU lacks {missing}: build with `make`, which picks the best level this CPU runs, or set RUSTFLAGS=\"-C target-cpu=x86-64-v3\""
         );
         return;
     }

@@ -7,8 +7,8 @@
 //! are).
 //!
 //! Every operation is a fixed loop over the lanes, inlined always, which
-//! LLVM turns into vector instructions (one AVX2 instruction with the
-//! x86-64-v3 build of `.cargo/config.toml`, two SSE2 ones otherwise): no
+//! LLVM turns into vector instructions (one AVX2 instruction in the
+//! x86-64-v3 and v4 builds `make` chooses, two SSE2 ones otherwise): no
 //! intrinsics, all safe Rust. Four `f64` lanes, not eight: eight `f64` (two
 //! registers per value) ran 1.26x slower per evaluation (register spills;
 //! criterion `unshadowed_batch/quad`, docs/performance.md). Comparisons give a mask of
