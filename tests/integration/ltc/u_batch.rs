@@ -10,6 +10,7 @@
 //! different order). The batch sends any lane it cannot vouch for
 //! (`REL_TOL` = 2e-4 of its rounding bound) to the scalar path.
 
+use crate::support::rng::XorShift64 as Rng;
 use glam::{Quat, Vec3, vec3};
 use penumbra::scene::Light;
 use penumbra::shading::u_batch::{
@@ -18,29 +19,6 @@ use penumbra::shading::u_batch::{
 use penumbra::shading::{ShadingLight, SurfacePoint, unshadowed_lobes_prepared};
 
 const TOL: f32 = 1e-4;
-
-/// xorshift64: reproducible inputs without a dependency.
-struct Rng(u64);
-impl Rng {
-    fn f(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, a: f32, b: f32) -> f32 {
-        a + (b - a) * self.f()
-    }
-    fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = vec3(self.f(), self.f(), self.f()) * 2.0 - Vec3::ONE;
-            let l = v.length();
-            if l > 0.1 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
-}
 
 /// A regular convex `n`-gon of radius `r` around `c`, turned by `q`.
 fn polygon_light(c: Vec3, r: f32, n: usize, q: Quat, two_sided: bool) -> Light {
@@ -68,10 +46,10 @@ fn random_light(rng: &mut Rng, origin: Vec3) -> Light {
         rng.range(-3.1, 3.1),
         rng.range(-3.1, 3.1),
     );
-    let n = 3 + (rng.f() * 6.0) as usize;
-    let two_sided = rng.f() < 0.3;
-    let dir = rng.unit();
-    let (dist, r) = match (rng.f() * 6.0) as u32 {
+    let n = 3 + (rng.f32() * 6.0) as usize;
+    let two_sided = rng.f32() < 0.3;
+    let dir = rng.direction();
+    let (dist, r) = match (rng.f32() * 6.0) as u32 {
         0 => (rng.range(0.5, 3.0), rng.range(0.05, 1.5)), // ordinary
         1 => (rng.range(0.2, 1.0), rng.range(0.5, 3.0)),  // near and large
         2 => (rng.range(1.0, 10.0), rng.range(1e-3, 1e-2)), // small
@@ -83,29 +61,29 @@ fn random_light(rng: &mut Rng, origin: Vec3) -> Light {
 }
 
 fn random_point(rng: &mut Rng, origin: Vec3) -> SurfacePoint {
-    let n = rng.unit();
+    let n = rng.direction();
     // Views from the normal to past grazing (shading normals).
-    let wo = (n * rng.range(-0.05, 1.0) + rng.unit()).normalize_or(n);
-    let spec = match (rng.f() * 4.0) as u32 {
+    let wo = (n * rng.range(-0.05, 1.0) + rng.direction()).normalize_or(n);
+    let spec = match (rng.f32() * 4.0) as u32 {
         0 => Vec3::ZERO,
         1 => Vec3::ONE,
         2 => Vec3::splat(0.04),
-        _ => vec3(rng.f(), rng.f(), rng.f()),
+        _ => vec3(rng.f32(), rng.f32(), rng.f32()),
     };
     SurfacePoint {
-        p: origin + vec3(rng.f(), rng.f(), rng.f()) * 0.1,
+        p: origin + vec3(rng.f32(), rng.f32(), rng.f32()) * 0.1,
         n,
         wo,
-        diffuse: if rng.f() < 0.2 {
+        diffuse: if rng.f32() < 0.2 {
             Vec3::ZERO
         } else {
-            vec3(rng.f(), rng.f(), rng.f())
+            vec3(rng.f32(), rng.f32(), rng.f32())
         },
         specular: spec,
-        roughness: if rng.f() < 0.1 {
+        roughness: if rng.f32() < 0.1 {
             0.0
         } else {
-            rng.f().powf(0.7)
+            rng.f32().powf(0.7)
         },
     }
 }
@@ -137,7 +115,7 @@ fn deviation(batch: (Vec3, Vec3), scalar: (Vec3, Vec3)) -> f32 {
 /// Runs `groups` random batches around `origin`; returns the worst
 /// deviation and how the lanes went.
 fn compare(seed: u64, groups: usize, origin: Vec3) -> (f32, LaneCounts) {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let mut worst: f32 = 0.0;
     let mut counts = LaneCounts::default();
     for _ in 0..groups {
@@ -146,7 +124,7 @@ fn compare(seed: u64, groups: usize, origin: Vec3) -> (f32, LaneCounts) {
         // Some lanes empty, as at the end of a row.
         let points: [Option<SurfacePoint>; LANES] = std::array::from_fn(|_| {
             let p = random_point(&mut rng, origin);
-            (rng.f() > 0.05).then_some(p)
+            (rng.f32() > 0.05).then_some(p)
         });
         let batch = PixelBatch::new(&points);
         let mut out = LaneLobes::default();
@@ -198,7 +176,7 @@ fn ordinary_lights_take_the_fast_path() {
     // prove little). The few that do are near-mirror lanes (roughness
     // ~0.14) whose LTC image cancels past the error bound's `REL_TOL`
     // (measured: 2 of 800).
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let light = polygon_light(
         vec3(0.0, 0.0, 2.0),
         0.7,
@@ -250,7 +228,7 @@ fn lights_straddling_the_horizons_of_a_floor_take_the_fast_path() {
     // share of the points (a quarter here). Those lanes are clipped in the
     // batch; on the scalar path each would cost about four vector lanes'
     // time.
-    let mut rng = Rng(5);
+    let mut rng = Rng::new(5);
     let light = polygon_light(
         vec3(0.0, 2.0, 1.0),
         0.7,
@@ -261,7 +239,7 @@ fn lights_straddling_the_horizons_of_a_floor_take_the_fast_path() {
     let mut straddling = 0;
     let counts = lane_counts(&light, 200, || {
         let p = vec3(rng.range(-2.0, 2.0), rng.range(-1.0, 1.5), 0.0);
-        let n = (Vec3::Z + 0.3 * rng.unit()).normalize();
+        let n = (Vec3::Z + 0.3 * rng.direction()).normalize();
         let low = light.vertices.iter().any(|v| n.dot(*v - p) < 0.0);
         let high = light.vertices.iter().any(|v| n.dot(*v - p) > 0.0);
         straddling += usize::from(low && high);
@@ -320,17 +298,17 @@ fn a_lane_gets_the_same_bits_whether_or_not_a_neighbour_straddles() {
     // more slot (a repeated vertex); the other lanes' answers must not move.
     let (light, straddling) = straddling_case();
     let bl = BatchLight::new(&light);
-    let mut rng = Rng(11);
+    let mut rng = Rng::new(11);
     for _ in 0..50 {
         let p = vec3(rng.range(-0.5, 0.5), rng.range(-0.5, 0.5), -2.0);
         let eye = vec3(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), 2.0);
         let plain = SurfacePoint {
             p,
-            n: (Vec3::Z + 0.3 * rng.unit()).normalize(),
+            n: (Vec3::Z + 0.3 * rng.direction()).normalize(),
             wo: (eye - p).normalize(),
             diffuse: Vec3::splat(0.5),
             specular: vec3(0.04, 0.5, 1.0),
-            roughness: rng.f(),
+            roughness: rng.f32(),
         };
         let [mut alone, mut mixed] = [LaneLobes::default(); 2];
         let c = lobes_batch(&PixelBatch::new(&[Some(plain)]), &bl, &mut alone);

@@ -10,6 +10,7 @@
 //! same point seen from other angles.
 
 use crate::support::ltc::{lobe_total, point_z, polygon_light, quantile, reference, rel};
+use crate::support::rng::SplitMix64 as Rng;
 use glam::{Quat, Vec3};
 use penumbra::scene::Light;
 use penumbra::shading::u_batch::{BatchLight, LANES, LaneLobes, PixelBatch, lobes_batch};
@@ -27,24 +28,6 @@ const TARGET_MEDIAN: f32 = 0.01;
 /// up (regression guards): p90 and max of the worst channel's error.
 const MEASURED_P90: f32 = 0.04;
 const MEASURED_MAX: f32 = 0.53;
-
-/// splitmix64: a fixed, dependency-free stream of uniform numbers.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        (z >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-}
 
 struct Config {
     roughness: f32,
@@ -76,13 +59,13 @@ fn config(rng: &mut Rng) -> Config {
     let u = facing.any_orthonormal_vector() * half;
     let v = facing.cross(u) * aspect;
     let c = dir * dist;
-    let triangle = rng.next() < 0.3;
+    let triangle = rng.f32() < 0.3;
     let vertices: Vec<Vec3> = if triangle {
         vec![c - u - v, c + u - v, c + v]
     } else {
         vec![c - u - v, c + u - v, c + u + v, c - u + v]
     };
-    let light = polygon_light(&vertices, Vec3::ONE, rng.next() < 0.5);
+    let light = polygon_light(&vertices, Vec3::ONE, rng.f32() < 0.5);
     Config {
         roughness,
         view,
@@ -117,7 +100,7 @@ fn batched_specular(lane: usize, c: &Config) -> Vec3 {
 
 #[test]
 fn ggx_matches_brute_force_on_an_independent_random_set() {
-    let mut rng = Rng(SEED);
+    let mut rng = Rng::new(SEED);
     let configs: Vec<Config> = (0..CASES).map(|_| config(&mut rng)).collect();
     // (config index, worst-channel error, F0 = 1 error, share of the lobe,
     // worst-channel error of the batched U)

@@ -9,6 +9,7 @@
 //! sweep's teeth are the unguarded buffers: `u`, `un`, `sn`, the ratio, the
 //! albedo, normal and depth AOVs, and the G-buffer vectors.
 
+use crate::support::rng::XorShift64 as Rng;
 use glam::Vec3;
 use image::{ImageFormat, Rgb32FImage};
 use penumbra::embree::{self, Device};
@@ -23,24 +24,6 @@ const HEIGHT: u32 = 12;
 /// Passes over every (camera, light) pair, each with fresh random scale,
 /// materials, maps, field of view and radiance.
 const ROUNDS: usize = 4;
-
-/// xorshift64: deterministic, no dependency, same sweep every run.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn unit(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn pick<T: Copy>(&mut self, items: &[T]) -> T {
-        items[(self.next() % items.len() as u64) as usize]
-    }
-}
 
 #[derive(Clone, Copy, Debug)]
 enum CameraKind {
@@ -111,7 +94,7 @@ fn scene_text(cam: CameraKind, light: LightKind, s: f32, rng: &mut Rng, maps: bo
         CameraKind::AtTheLight => (Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 3.0, 0.01), Vec3::Z),
         CameraKind::InsideSphere => (Vec3::new(-2.5, 1.0, 2.5), Vec3::new(0.0, 0.0, 0.0), Vec3::Y),
     };
-    let any = rng.unit();
+    let any = rng.f32();
     let roughness = rng.pick(&[0.0, 1.0, any]);
     let specular = rng.pick(&[0.0, 1.0, 0.04]);
     let diffuse = rng.pick(&[0.0, 1.0, 0.5]);
@@ -163,7 +146,7 @@ fn scene_text(cam: CameraKind, light: LightKind, s: f32, rng: &mut Rng, maps: bo
             "center = {}\nsize = {}\nrotate_y = {}",
             v(Vec3::new(0.5, 0.5, 0.5) * s),
             v(Vec3::ONE * s),
-            rng.unit() * 90.0
+            rng.f32() * 90.0
         ),
     );
     object(
@@ -321,7 +304,7 @@ fn sweep_scene(scene: &Scene, what: &str, findings: &mut Vec<String>) -> usize {
 fn every_aov_of_every_mode_is_finite_on_hostile_scenes() {
     let dir = tempfile::tempdir().unwrap();
     write_hostile_maps(dir.path());
-    let mut rng = Rng(0x5eed_cafe_f00d_0001);
+    let mut rng = Rng::new(0x5eed_cafe_f00d_0001);
     let mut findings = Vec::new();
     let (mut scenes, mut lit) = (0, 0);
     for (cam, light) in (0..ROUNDS).flat_map(|_| {

@@ -2,40 +2,7 @@
 
 use penumbra::embree::Vec3;
 
-/// xorshift64* — deterministic, dependency-free, good enough for test data.
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Rng(seed.max(1))
-    }
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    /// Uniform in [0, 1).
-    pub fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-    pub fn vec3(&mut self, lo: f32, hi: f32) -> Vec3 {
-        Vec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
-    }
-    /// Uniform direction on the unit sphere.
-    pub fn dir(&mut self) -> Vec3 {
-        loop {
-            let v = self.vec3(-1.0, 1.0);
-            let l = v.length_squared();
-            if l > 1e-4 && l <= 1.0 {
-                return v / l.sqrt();
-            }
-        }
-    }
-}
+pub use super::rng::XorShift64Star as Rng;
 
 /// `count` independent triangles of edge ~`size` scattered in [-1, 1]^3.
 pub fn triangle_soup(rng: &mut Rng, count: usize, size: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {

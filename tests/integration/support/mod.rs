@@ -4,6 +4,7 @@
 pub mod denoise;
 pub mod embree;
 pub mod ltc;
+pub mod rng;
 pub mod sampling;
 pub mod scene;
 
