@@ -16,20 +16,9 @@ pub fn quad_light(c: Vec3, u: Vec3, v: Vec3, two_sided: bool) -> Light {
     }
 }
 
-/// A convex polygon light; normal by the right-hand rule.
+/// A convex polygon light of unit radiance; normal by the right-hand rule.
 pub fn polygon_light(vertices: Vec<Vec3>, two_sided: bool) -> Light {
-    let mut cross = Vec3::ZERO;
-    for i in 1..vertices.len() - 1 {
-        cross += (vertices[i] - vertices[0]).cross(vertices[i + 1] - vertices[0]);
-    }
-    Light {
-        vertices,
-        radiance: Vec3::ONE,
-        two_sided,
-        normal: cross.normalize(),
-        area: 0.5 * cross.length(),
-        quad: None,
-    }
+    super::ltc::polygon_light(&vertices, Vec3::ONE, two_sided)
 }
 
 /// A regular n-gon around `c` in the plane spanned by `a`, `b` (unit,
