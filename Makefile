@@ -111,7 +111,7 @@ longrun: build
 	scripts/longrun.sh "view --frames $(LONGRUN_FRAMES) (Xvfb)" $(LONGRUN_BOUND_KIB) \
 	  xvfb-run -a $(BIN) view --frames $(LONGRUN_FRAMES) --width 64 --height 36 --screenshot out/longrun-view.png
 
-# Re-renders every golden frame of tests/golden.rs into tests/golden/ (after a
+# Re-renders every golden frame of tests/integration/golden.rs into tests/golden/ (after a
 # change to the frames that is meant); `make test` compares against them.
 golden-bless: deps
-	PENUMBRA_GOLDEN_BLESS=1 $(CARGO) test --release --test golden -- every_mode_on_every_shipped_scene
+	PENUMBRA_GOLDEN_BLESS=1 $(CARGO) test --release --test integration -- golden::every_mode_on_every_shipped_scene

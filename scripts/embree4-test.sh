@@ -47,11 +47,7 @@ e4_lib=$(env -u LD_LIBRARY_PATH ldd "$E4_BIN" | awk '/libembree4/ {print $3}')
 echo "$E4_BIN loads $e4_lib"
 
 step "Embree tests against Embree 4"
-tests=()
-for t in tests/embree_*.rs; do
-    tests+=(--test "$(basename "$t" .rs)")
-done
-e4 nice -n 10 "$CARGO" test --release "${tests[@]}" || fail "Embree tests (tests/embree_*.rs) against Embree 4"
+e4 nice -n 10 "$CARGO" test --release --test integration embree:: || fail "Embree tests (tests/integration/embree/) against Embree 4"
 e4 nice -n 10 "$CARGO" test --release --lib embree:: || fail "the embree module's unit tests against Embree 4"
 
 step "render every shipped scene with both builds (${WIDTH}x${HEIGHT}, seed $SEED)"

@@ -1,0 +1,8 @@
+//! The analytic unshadowed light U (LTC) against brute-force quadrature, scalar and batched.
+
+mod accuracy;
+mod hard_cases;
+mod properties;
+mod u_batch;
+mod unshadowed_mode;
+mod validation;

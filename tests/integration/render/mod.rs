@@ -1,0 +1,10 @@
+//! Frames: the G-buffer, determinism, the seed paper's claims, shadow budgets, visibility rate, NaN sweeps.
+
+mod determinism;
+mod gbuffer;
+mod nan_sweep;
+mod no_specular_lobe;
+mod pixel_replay;
+mod seed_claims;
+mod shadow_budget;
+mod visibility_rate;

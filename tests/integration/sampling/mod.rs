@@ -1,0 +1,8 @@
+//! Light and BRDF sampling, MIS and the low-discrepancy sequence against f64 references.
+
+mod brdf;
+mod light;
+mod light_sampler;
+mod mis;
+mod properties;
+mod sequence;
