@@ -2,11 +2,13 @@
 //! `cargo run --release --example u_scene_error -- scenes/room.toml 320 180 4`
 //! (scene, width, height, pixel stride). For every `stride`-th surface pixel
 //! of the G-buffer, U of every light (`unshadowed`) against adaptive area
-//! quadrature of the same BRDF x light (tests/ltc_support). Prints the
+//! quadrature of the same BRDF x light (tests/integration/support/ltc.rs). Prints the
 //! relMSE of the summed U (the image metric of `error_table`) and the
 //! distribution of its relative error.
 
-#[path = "../tests/ltc_support/mod.rs"]
+// The example uses the quadrature (`reference`) alone.
+#[allow(dead_code)]
+#[path = "../tests/integration/support/ltc.rs"]
 mod common;
 
 use glam::Vec3;

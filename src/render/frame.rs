@@ -615,7 +615,11 @@ impl Frame {
         let mut tiles = self.denoiser.settled_tiles(SETTLED_HISTORY);
         for (t, class) in tiles.iter_mut().enumerate() {
             let phase = (t as u32).wrapping_mul(0x9E37_79B9) >> 28;
-            if self.frame_index.wrapping_add(phase).is_multiple_of(REFRESH_PERIOD) {
+            if self
+                .frame_index
+                .wrapping_add(phase)
+                .is_multiple_of(REFRESH_PERIOD)
+            {
                 *class = 0;
             }
         }

@@ -1,4 +1,4 @@
-//! Frames: the G-buffer, determinism, the seed paper's claims, shadow budgets, visibility rate, NaN sweeps.
+//! Frames: the G-buffer, determinism, the seed paper's claims, shadow budgets, visibility rate, settled tiles, the pixel replay, NaN sweeps.
 
 mod determinism;
 mod gbuffer;
@@ -6,5 +6,6 @@ mod nan_sweep;
 mod no_specular_lobe;
 mod pixel_replay;
 mod seed_claims;
+mod settle;
 mod shadow_budget;
 mod visibility_rate;

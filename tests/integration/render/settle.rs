@@ -2,9 +2,7 @@
 //! rays (`RenderSettings::settle`), and the frame stays what sampling every
 //! tile gives; a moving camera samples every tile.
 
-mod common;
-
-use common::load;
+use crate::support::load;
 use penumbra::embree::{self, Device};
 use penumbra::render::{Frame, PhaseTimes, RenderSettings, World};
 use penumbra::scene::Camera;
@@ -64,7 +62,7 @@ fn a_settled_frame_stays_what_sampling_every_tile_gives() {
     let camera = load("room.toml").camera;
     let (every, _) = run(false, &[camera; FRAMES]);
     let (settled, _) = run(true, &[camera; FRAMES]);
-    let e = common::rel_mse(&settled, &every);
+    let e = crate::support::rel_mse(&settled, &every);
     assert!(
         e <= MAX_SETTLED_REL_MSE,
         "relMSE {e:.3e} against every tile"
