@@ -134,7 +134,7 @@ struct ViewArgs {
     /// and the linear frame beside it as EXR.
     #[arg(long)]
     screenshot: Option<PathBuf>,
-    /// Replay timed key and mouse events from this file (see README, "Viewer").
+    /// Replay timed key and mouse events from this file (format: docs/viewer.md).
     #[arg(long)]
     script: Option<PathBuf>,
     /// Scale the render resolution (down to a quarter of each side) to
