@@ -226,41 +226,50 @@ fn edge(right: impl Fn(&mut GSample)) -> Edge {
     }
 }
 
+/// The edge fixture with every quad sampled at `offset`: each quad's guides
+/// are its sampled pixel's, its `U_N` is 1 and its `S_N` is `sn` of the
+/// pixel's column; returns the upsampled `U_N`, `S_N` (with `U` = 1) and the
+/// pixels left to sample themselves.
+fn upsample_fixture(
+    e: &Edge,
+    offset: (u32, u32),
+    sn: impl Fn(u32) -> Vec3,
+) -> (Vec<Vec3>, Vec<Vec3>, Vec<u32>) {
+    let mut q = Quads::new(EDGE_W, EDGE_H);
+    for j in 0..q.height {
+        for i in 0..q.width {
+            let (x, y) = penumbra::render::quads::sampled_pixel(i, j, offset, EDGE_W, EDGE_H);
+            let k = (y * EDGE_W + x) as usize;
+            let m = (j * q.width + i) as usize;
+            let g = &e.gbuf[k];
+            q.guide.position[m] = g.position;
+            q.guide.normal[m] = g.ng;
+            q.guide.depth[m] = g.depth;
+            q.guide.lobe[m] = e.lobe[k];
+            q.un[m] = Vec3::ONE;
+            q.sn[m] = sn(x);
+        }
+    }
+    q.offset = offset;
+    let full = FullRes {
+        width: EDGE_W,
+        height: EDGE_H,
+        gbuf: &e.gbuf,
+        lobe: &e.lobe,
+    };
+    let n = (EDGE_W * EDGE_H) as usize;
+    let (mut un, mut sn, mut orphans) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
+    upsample(&full, &q, &vec![Vec3::ONE; n], &mut un, &mut sn, &mut orphans);
+    (un, sn, orphans)
+}
+
 /// Quad signals as the pixel each quad sampled would give them, for every
 /// sampling offset; checks every upsampled pixel keeps its own side.
 fn check_sides(e: &Edge, what: &str) {
     for offset in penumbra::render::quads::QUAD_ORDER {
-        let mut q = Quads::new(EDGE_W, EDGE_H);
-        for j in 0..q.height {
-            for i in 0..q.width {
-                let (x, y) = penumbra::render::quads::sampled_pixel(i, j, offset, EDGE_W, EDGE_H);
-                let k = (y * EDGE_W + x) as usize;
-                let m = (j * q.width + i) as usize;
-                let g = &e.gbuf[k];
-                q.guide.position[m] = g.position;
-                q.guide.normal[m] = g.ng;
-                q.guide.depth[m] = g.depth;
-                q.un[m] = Vec3::ONE;
-                q.sn[m] = if x < EDGE_X { Vec3::ONE } else { Vec3::ZERO };
-            }
-        }
-        q.offset = offset;
-        let full = FullRes {
-            width: EDGE_W,
-            height: EDGE_H,
-            gbuf: &e.gbuf,
-            lobe: &e.lobe,
-        };
+        let side = |x: u32| if x < EDGE_X { Vec3::ONE } else { Vec3::ZERO };
+        let (un, sn, orphans) = upsample_fixture(e, offset, side);
         let n = (EDGE_W * EDGE_H) as usize;
-        let (mut un, mut sn, mut orphans) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
-        upsample(
-            &full,
-            &q,
-            &vec![Vec3::ONE; n],
-            &mut un,
-            &mut sn,
-            &mut orphans,
-        );
         for k in 0..n {
             if orphans.contains(&(k as u32)) {
                 continue;
@@ -302,36 +311,7 @@ fn upsampling_never_mixes_the_ratio_across_a_normal_edge() {
 fn upsampling_fills_every_pixel_of_a_plane() {
     // One plane, no edge: no pixel is left for its own samples.
     let e = edge(|_| {});
-    let q = Quads::new(EDGE_W, EDGE_H);
-    let mut q = q;
-    for j in 0..q.height {
-        for i in 0..q.width {
-            let (x, y) = penumbra::render::quads::sampled_pixel(i, j, (1, 0), EDGE_W, EDGE_H);
-            let k = (y * EDGE_W + x) as usize;
-            let m = (j * q.width + i) as usize;
-            q.guide.position[m] = e.gbuf[k].position;
-            q.guide.normal[m] = e.gbuf[k].ng;
-            q.guide.depth[m] = e.gbuf[k].depth;
-            q.un[m] = Vec3::ONE;
-        }
-    }
-    q.offset = (1, 0);
-    let full = FullRes {
-        width: EDGE_W,
-        height: EDGE_H,
-        gbuf: &e.gbuf,
-        lobe: &e.lobe,
-    };
-    let n = (EDGE_W * EDGE_H) as usize;
-    let (mut un, mut sn, mut orphans) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
-    upsample(
-        &full,
-        &q,
-        &vec![Vec3::ONE; n],
-        &mut un,
-        &mut sn,
-        &mut orphans,
-    );
+    let (un, _, orphans) = upsample_fixture(&e, (1, 0), |_| Vec3::ZERO);
     assert!(orphans.is_empty(), "orphans on a plane: {orphans:?}");
     assert!(un.iter().all(|u| u.x > 0.0));
 }
@@ -352,38 +332,7 @@ fn turning_lobes(e: &mut Edge, step: f32, sharpness: f32) {
 /// The edge fixture's plane, every quad sampled with `offset`, upsampled;
 /// returns the pixels left to sample themselves.
 fn orphans_of_plane(e: &Edge, offset: (u32, u32)) -> Vec<u32> {
-    let mut q = Quads::new(EDGE_W, EDGE_H);
-    for j in 0..q.height {
-        for i in 0..q.width {
-            let (x, y) = penumbra::render::quads::sampled_pixel(i, j, offset, EDGE_W, EDGE_H);
-            let k = (y * EDGE_W + x) as usize;
-            let m = (j * q.width + i) as usize;
-            q.guide.position[m] = e.gbuf[k].position;
-            q.guide.normal[m] = e.gbuf[k].ng;
-            q.guide.depth[m] = e.gbuf[k].depth;
-            q.guide.lobe[m] = e.lobe[k];
-            q.un[m] = Vec3::ONE;
-            q.sn[m] = Vec3::ONE;
-        }
-    }
-    q.offset = offset;
-    let full = FullRes {
-        width: EDGE_W,
-        height: EDGE_H,
-        gbuf: &e.gbuf,
-        lobe: &e.lobe,
-    };
-    let n = (EDGE_W * EDGE_H) as usize;
-    let (mut un, mut sn, mut orphans) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
-    upsample(
-        &full,
-        &q,
-        &vec![Vec3::ONE; n],
-        &mut un,
-        &mut sn,
-        &mut orphans,
-    );
-    orphans
+    upsample_fixture(e, offset, |_| Vec3::ONE).2
 }
 
 /// A lobe this narrow (a near-mirror, roughness ~0.05) against mirror
