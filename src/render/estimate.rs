@@ -18,7 +18,7 @@ use crate::sampling::light::{LightSampler, sample_light_area_uniform};
 use crate::sampling::sequence::{sample_1d, sample_2d};
 use crate::shading::SurfacePoint;
 use crate::shading::brdf::{Frame, alpha_from_roughness, eval_local};
-use crate::shading::u_batch::{BatchLight, LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch};
+use crate::shading::u_batch::{LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch};
 use glam::Vec3;
 
 pub fn mode_available(_mode: Mode) -> bool {
@@ -65,7 +65,7 @@ pub fn analytic_u_band(
     u: &mut [Vec3],
     spec_share: &mut [f32],
 ) -> LaneCounts {
-    let lights: Vec<BatchLight> = world.scene.lights.iter().map(BatchLight::new).collect();
+    let lights = world.lights.batch();
     let n = lights.len();
     let mut counts = LaneCounts::default();
     let mut lobes = LaneLobes::default();
@@ -265,7 +265,7 @@ pub fn draw_samples(
         count: spp,
         seed,
     } = stream;
-    if g.kind != PixelKind::Surface || world.scene.lights.is_empty() || spp == 0 {
+    if g.kind != PixelKind::Surface || world.lights.is_empty() || spp == 0 {
         return;
     }
     let inv_spp = 1.0 / spp as f32;
@@ -287,7 +287,7 @@ pub fn draw_samples(
     for s in 0..spp {
         let index = first.wrapping_add(s);
         let (li, p_choose) = pick_light(per_light, sample_1d(pixel, index, DIM_LIGHT, seed));
-        let light = &world.scene.lights[li];
+        let light = &world.lights.declared()[li];
         let dir_u = sample_2d(pixel, index, DIM_DIR, seed);
         if estimator == Estimator::AreaVisibility {
             let q = sample_light_area_uniform(light, dir_u);
@@ -316,7 +316,7 @@ pub fn draw_samples(
         }
         if cached_light != li {
             cached_light = li;
-            cached = LightSampler::new(&world.prepared[li], g.position);
+            cached = LightSampler::new(&world.lights.sampling()[li], g.position);
         }
         let Some(sampler) = cached.as_ref() else {
             sink.record(|| SampleRecord {
