@@ -42,7 +42,7 @@ fn main() -> anyhow::Result<()> {
         .step_by(stride.max(1))
         .filter(|&i| frame.gbuf[i].kind == PixelKind::Surface)
         .collect();
-    let lights = &world.scene.lights;
+    let lights = world.lights.declared();
     // (U, reference) per pixel, all lights summed.
     let pairs: Vec<(Vec3, Vec3)> = pool.install(|| {
         pixels

@@ -5,6 +5,7 @@
 //! A frame flows one way: scene → G-buffer (Embree packets) → analytic `U`,
 //! samples, shadow rays → denoiser → composite → window or file.
 
+pub mod color;
 pub mod compare;
 pub mod denoise;
 pub mod embree;

@@ -253,24 +253,8 @@ fn frame_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> Result<
     Ok((w, h))
 }
 
-fn check_mode(mode: Mode) -> Result<()> {
-    if !mode.available() {
-        let ready: Vec<_> = Mode::ALL
-            .iter()
-            .filter(|m| m.available())
-            .map(|m| m.name())
-            .collect();
-        bail!(
-            "mode \"{mode}\" is not available yet in this build (available: {})",
-            ready.join(", ")
-        );
-    }
-    Ok(())
-}
-
 fn cmd_render(a: RenderArgs) -> Result<()> {
     let c = &a.common;
-    check_mode(c.mode)?;
     let aovs = Aov::parse_list(&a.aov)?;
     let ext = a
         .out

@@ -21,16 +21,7 @@ impl Rng {
 }
 
 pub fn quad(c: Vec3, u: Vec3, v: Vec3) -> Light {
-    let vertices = vec![c - u - v, c + u - v, c + u + v, c - u + v];
-    let n = u.cross(v);
-    Light {
-        vertices,
-        radiance: Vec3::splat(5.0),
-        two_sided: false,
-        normal: n.normalize(),
-        area: 4.0 * n.length(),
-        quad: Some((c, u, v)),
-    }
+    Light::quad(c, u, v, Vec3::splat(5.0)).expect("a bench quad spans an area")
 }
 
 /// Four quads, all emitting toward the plane y = 0 around the origin.

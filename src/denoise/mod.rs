@@ -185,16 +185,12 @@ pub struct Denoiser {
     scratch_sn: Vec<Vec3>,
 }
 
-/// Rec. 709 luminance: the scalar the ratio and `U` edges are judged on.
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
+pub use crate::color::luminance;
 
 /// Ratio of luminances in [0, 1]. Where `U_N` carries no light the ratio is
 /// defined as 1 (nothing is known to be blocked), never a division by zero.
 #[inline]
-pub fn ratio(un: Vec3, sn: Vec3) -> f32 {
+pub fn luminance_ratio(sn: Vec3, un: Vec3) -> f32 {
     let lu = luminance(un);
     if lu > 1e-30 && lu.is_finite() {
         (luminance(sn) / lu).clamp(0.0, 1.0)

@@ -13,7 +13,7 @@
 
 use super::history::History;
 use super::tiles::{TILE, Tiles};
-use super::{DenoiseSettings, Lobe, luminance, ratio};
+use super::{DenoiseSettings, Lobe, luminance, luminance_ratio};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -200,7 +200,7 @@ impl Ctx<'_> {
                             du[x] = u;
                             ds[x] = s;
                             if !last {
-                                dr[x] = ratio(u, s);
+                                dr[x] = luminance_ratio(s, u);
                             }
                         }
                     }

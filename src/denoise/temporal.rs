@@ -8,7 +8,7 @@
 use super::history::{History, Meta, decode_normal, encode_normal};
 use super::spatial::Guide;
 use super::tiles::{self, TILE};
-use super::{DenoiseSettings, GuideBuffers, luminance, ratio};
+use super::{DenoiseSettings, GuideBuffers, luminance, luminance_ratio};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -88,7 +88,7 @@ pub(crate) fn accumulate(
                     h_sn[x] = sn[x];
                     h_meta[x] = Meta::default();
                     gd[x].lu = -1.0;
-                    ar[x] = ratio(un[x], sn[x]);
+                    ar[x] = luminance_ratio(sn[x], un[x]);
                     raw[x] = 1.0;
                     continue;
                 }
@@ -104,7 +104,7 @@ pub(crate) fn accumulate(
                     tiles::DARK => (sanitize(guide.u[i]), Vec3::ZERO),
                     _ => (sanitize(guide.u[i]), sanitize(guide.u[i])),
                 };
-                let r = ratio(u_in, s_in);
+                let r = luminance_ratio(s_in, u_in);
                 let lu = luminance(guide.u[i]);
                 let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
                 let share = guide.lobe.get(i).map_or(0.0, |l| l.share);
@@ -164,7 +164,7 @@ pub(crate) fn accumulate(
                     lu,
                     lobe: guide.lobe.get(i).copied().unwrap_or_default(),
                 };
-                ar[x] = ratio(acc_u, acc_s);
+                ar[x] = luminance_ratio(acc_s, acc_u);
                 raw[x] = r;
                 class[x / TILE] &= tiles::pixel_class(acc_u, acc_s);
             }

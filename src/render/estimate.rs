@@ -9,21 +9,16 @@
 //! its shadow ray comes back unoccluded.
 
 use super::gbuffer::{GSample, PixelKind};
-use super::mode::Mode;
 use super::shadow::{ShadowBatch, ShadowRay};
 use super::world::World;
-use crate::denoise::luminance;
+use crate::color::{LUMA, luminance};
 use crate::sampling::brdf_sample::{brdf_pdf_local, sample_brdf, spec_lobe_probability};
 use crate::sampling::light::{LightSampler, sample_light_area_uniform};
 use crate::sampling::sequence::{sample_1d, sample_2d};
 use crate::shading::SurfacePoint;
-use crate::shading::brdf::{Frame, alpha_from_roughness, eval_local};
-use crate::shading::u_batch::{BatchLight, LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch};
+use crate::shading::brdf::{ShadingBasis, alpha_from_roughness, eval_local};
+use crate::shading::u_batch::{LANES, LaneCounts, LaneLobes, PixelBatch, lobes_batch};
 use glam::Vec3;
-
-pub fn mode_available(_mode: Mode) -> bool {
-    true
-}
 
 /// Dimensions of the per-pixel sample stream.
 const DIM_LIGHT: u32 = 0;
@@ -37,8 +32,6 @@ pub const DIM_JITTER: u32 = 4;
 /// analytic `U` is (wrongly or barely) zero still gets samples: the
 /// estimator stays unbiased whatever `U` says.
 const UNIFORM_LIGHT_SHARE: f32 = 0.1;
-
-const LUMA: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
 #[inline]
 pub fn surface_point(g: &GSample) -> SurfacePoint {
@@ -65,7 +58,7 @@ pub fn analytic_u_band(
     u: &mut [Vec3],
     spec_share: &mut [f32],
 ) -> LaneCounts {
-    let lights: Vec<BatchLight> = world.scene.lights.iter().map(BatchLight::new).collect();
+    let lights = world.lights.batch();
     let n = lights.len();
     let mut counts = LaneCounts::default();
     let mut lobes = LaneLobes::default();
@@ -265,7 +258,7 @@ pub fn draw_samples(
         count: spp,
         seed,
     } = stream;
-    if g.kind != PixelKind::Surface || world.scene.lights.is_empty() || spp == 0 {
+    if g.kind != PixelKind::Surface || world.lights.is_empty() || spp == 0 {
         return;
     }
     let inv_spp = 1.0 / spp as f32;
@@ -277,7 +270,7 @@ pub fn draw_samples(
     let lobe_solid_angle = 4.0 * std::f32::consts::PI * (2.0 * alpha).powi(2);
     // One local frame per pixel for both the BRDF and its pdf (the pdf is
     // isotropic, so it does not care which frame), instead of two per sample.
-    let frame = Frame::from_normal_view(n, wo);
+    let frame = ShadingBasis::from_normal_view(n, wo);
     let wo_l = frame.to_local(wo);
     // The light sampler of the last light chosen: its setup is per (light,
     // point). Kept in place and borrowed: the sampler is large enough that
@@ -287,7 +280,7 @@ pub fn draw_samples(
     for s in 0..spp {
         let index = first.wrapping_add(s);
         let (li, p_choose) = pick_light(per_light, sample_1d(pixel, index, DIM_LIGHT, seed));
-        let light = &world.scene.lights[li];
+        let light = &world.lights.declared()[li];
         let dir_u = sample_2d(pixel, index, DIM_DIR, seed);
         if estimator == Estimator::AreaVisibility {
             let q = sample_light_area_uniform(light, dir_u);
@@ -316,7 +309,7 @@ pub fn draw_samples(
         }
         if cached_light != li {
             cached_light = li;
-            cached = LightSampler::new(&world.prepared[li], g.position);
+            cached = LightSampler::new(&world.lights.sampling()[li], g.position);
         }
         let Some(sampler) = cached.as_ref() else {
             sink.record(|| SampleRecord {

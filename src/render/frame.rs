@@ -110,7 +110,7 @@ impl BandJob<'_, '_> {
         let t = Instant::now();
         trace_rows(world, self.cam, self.prev, y0, self.offset, gbuf);
         let t = PhaseClock::add(&clock.primary, t);
-        let lights = world.scene.lights.len();
+        let lights = world.lights.len();
         scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
         scratch.spec_share.resize(gbuf.len(), 0.0);
         analytic_u_band(
@@ -144,7 +144,7 @@ impl BandJob<'_, '_> {
             return since;
         };
         let world = self.world;
-        let lights = world.scene.lights.len();
+        let lights = world.lights.len();
         scratch.batch.clear();
         let width = self.cam.width;
         for (k, m) in pixels {
@@ -361,11 +361,11 @@ impl Frame {
             self.accum.clear();
             self.accum_spp = 0;
         }
-        if world.scene.lights != self.prev_lights {
+        if world.lights.declared() != self.prev_lights {
             if self.prev_camera.is_some() {
                 self.reset_history();
             }
-            self.prev_lights.clone_from(&world.scene.lights);
+            self.prev_lights = world.lights.declared().to_vec();
         }
         if plan.denoise && self.history_rate != Some(plan.rate) {
             // A history built at another rate describes other pixels.
@@ -852,7 +852,7 @@ fn orphan_samples(
         return Vec::new();
     };
     let world = job.world;
-    let lights = &world.shading_lights;
+    let lights = world.lights.shading();
     let mut per_light = vec![Vec3::ZERO; lights.len()];
     let mut batch = ShadowBatch::default();
     let mut out: Vec<(u32, Vec3, Vec3)> = Vec::with_capacity(chunk.len());

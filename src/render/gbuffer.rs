@@ -65,7 +65,7 @@ pub fn resolve_hit(
     };
     match geom {
         GeomRef::Light(li) => {
-            let light = &world.scene.lights[li as usize];
+            let light = &world.lights.declared()[li as usize];
             let position = world.scene.camera.eye + dir * t;
             let mut ng = light.normal;
             let front = ng.dot(dir) < 0.0;

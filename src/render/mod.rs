@@ -4,6 +4,7 @@ pub mod estimate;
 pub mod frame;
 pub mod gbuffer;
 pub mod guides;
+pub mod lights;
 pub mod mode;
 pub mod plan;
 pub mod primary;

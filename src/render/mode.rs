@@ -35,11 +35,6 @@ impl Mode {
             Mode::Reference => "reference",
         }
     }
-
-    /// Whether this build can render the mode.
-    pub fn available(self) -> bool {
-        super::estimate::mode_available(self)
-    }
 }
 
 impl fmt::Display for Mode {

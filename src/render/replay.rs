@@ -67,7 +67,7 @@ pub fn replay_pixel(
     let plan = FramePlan::of(settings);
     let k = (y * frame.width + x) as usize;
     let g = frame.gbuf[k];
-    let lights = world.scene.lights.len();
+    let lights = world.lights.len();
     let mut per_light = vec![Vec3::ZERO; lights];
     let (mut u, mut share) = ([Vec3::ZERO], [0.0]);
     analytic_u_band(

@@ -1,10 +1,9 @@
 //! The scene as a ray-traced world: the scene's data plus its Embree scene,
 //! and the map from Embree geometry ids back to meshes and lights.
 
+use super::lights::Lights;
 use crate::embree::{Device, EmbreeError, GeometryRole, SceneBuilder};
-use crate::sampling::light::PreparedLight;
 use crate::scene::{Light, Scene};
-use crate::shading::ShadingLight;
 use glam::Vec3;
 
 /// What an Embree geometry id stands for.
@@ -16,10 +15,9 @@ pub enum GeomRef {
 
 pub struct World<'d> {
     pub scene: Scene,
-    /// Per-light sampling data that does not depend on the shading point.
-    pub prepared: Vec<PreparedLight>,
-    /// Per-light shading data for the analytic `U` (one per scene light).
-    pub shading_lights: Vec<ShadingLight>,
+    /// `scene.lights` in every form the renderer reads, prepared once here;
+    /// nothing changes a built world, so the two stay the same lights.
+    pub lights: Lights,
     pub rt: crate::embree::Scene<'d>,
     pub geoms: Vec<GeomRef>,
 }
@@ -43,12 +41,10 @@ impl<'d> World<'d> {
             geoms.push(GeomRef::Light(i as u32));
         }
         let rt = builder.commit()?;
-        let prepared = scene.lights.iter().map(PreparedLight::new).collect();
-        let shading_lights = scene.lights.iter().map(ShadingLight::new).collect();
+        let lights = Lights::new(&scene.lights);
         Ok(World {
             scene,
-            prepared,
-            shading_lights,
+            lights,
             rt,
             geoms,
         })

@@ -63,7 +63,7 @@ pub fn ray_ceiling(world: &World, camera: &Camera, width: u32, height: u32, spp:
         .collect();
     let primary = start.elapsed().as_secs_f64();
 
-    let lights = &world.scene.lights;
+    let lights = world.lights.declared();
     let mut shadow_rays: Vec<(Vec3, Vec3, f32)> = Vec::new();
     if !lights.is_empty() {
         for (p, (rays, h)) in packets.iter().zip(&hits).enumerate() {

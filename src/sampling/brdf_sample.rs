@@ -9,6 +9,7 @@
 //! Visible GGX Normals with Spherical Caps"): the same distribution, fewer
 //! operations and no special case at normal incidence.
 
+use crate::color::LUMA;
 use crate::shading::brdf;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -103,7 +104,6 @@ pub fn vndf_pdf(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
 /// of Schlick's Fresnel at the view angle. Exactly 0 (1) when a lobe is absent,
 /// so no sample is ever wasted on a black lobe.
 pub fn spec_lobe_probability(diffuse: Vec3, specular: Vec3, n_dot_wo: f32) -> f32 {
-    const LUMA: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
     let wd = diffuse.dot(LUMA).max(0.0);
     let ws = if crate::shading::brdf::has_specular_lobe(specular) {
         let m = (1.0 - n_dot_wo.clamp(0.0, 1.0)).powi(5);

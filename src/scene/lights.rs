@@ -6,6 +6,7 @@
 //! Checks run in f64 with tolerances relative to the polygon's size, so the
 //! same shape is accepted or refused whatever its scale.
 
+use super::fields::fmt_vec3;
 use glam::{DVec3, Vec3};
 
 /// Relative tolerance below which an area (relative to size^2) or a corner's
@@ -101,4 +102,87 @@ pub fn polygon_geometry(verts: &[Vec3]) -> Result<(Vec3, f32), String> {
         ));
     }
     Ok((normal.as_vec3(), (0.5 * twice_area) as f32))
+}
+
+/// Why `Light::quad` or `Light::polygon` refused a light.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LightError {
+    /// A radiance channel is negative.
+    NegativeRadiance(Vec3),
+    /// The quad's `u` and `v` span zero area (a zero or parallel edge).
+    ZeroArea { u: Vec3, v: Vec3 },
+    /// The polygon's vertices are refused by `polygon_geometry`, for this reason.
+    Polygon(String),
+}
+
+impl std::fmt::Display for LightError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LightError::NegativeRadiance(r) => {
+                write!(f, "radiance = {} has a negative channel", fmt_vec3(*r))
+            }
+            LightError::ZeroArea { u, v } => write!(
+                f,
+                "u = {} and v = {} span zero area (u x v = 0: a zero or parallel edge)",
+                fmt_vec3(*u),
+                fmt_vec3(*v)
+            ),
+            LightError::Polygon(msg) => write!(f, "vertices: {msg}"),
+        }
+    }
+}
+
+impl std::error::Error for LightError {}
+
+fn check_radiance(radiance: Vec3) -> Result<(), LightError> {
+    if radiance.min_element() < 0.0 {
+        return Err(LightError::NegativeRadiance(radiance));
+    }
+    Ok(())
+}
+
+impl super::Light {
+    /// A one-sided parallelogram light with corners `center` +- `u` +- `v`,
+    /// emitting along `u` x `v`: the light a scene file's `type = "quad"`
+    /// table describes. Refused where the loader refuses it.
+    pub fn quad(center: Vec3, u: Vec3, v: Vec3, radiance: Vec3) -> Result<Self, LightError> {
+        check_radiance(radiance)?;
+        if parallelogram_degenerate(u, v) {
+            return Err(LightError::ZeroArea { u, v });
+        }
+        let c = center;
+        let cross = u.cross(v);
+        Ok(super::Light {
+            // Right-hand order: the emitting side is normalize(cross(u, v)).
+            vertices: vec![c - u - v, c + u - v, c + u + v, c - u + v],
+            radiance,
+            two_sided: false,
+            normal: cross.normalize(),
+            area: 4.0 * cross.length(),
+            quad: Some((c, u, v)),
+        })
+    }
+
+    /// A one-sided planar convex polygon light of 3 to 8 vertices, emitting
+    /// along the right-hand-rule normal of their order: the light a scene
+    /// file's `type = "polygon"` table describes. Refused where the loader
+    /// refuses it.
+    pub fn polygon(vertices: Vec<Vec3>, radiance: Vec3) -> Result<Self, LightError> {
+        check_radiance(radiance)?;
+        let (normal, area) = polygon_geometry(&vertices).map_err(LightError::Polygon)?;
+        Ok(super::Light {
+            vertices,
+            radiance,
+            two_sided: false,
+            normal,
+            area,
+            quad: None,
+        })
+    }
+
+    /// The same light, emitting from both sides when `two_sided`.
+    pub fn with_two_sided(mut self, two_sided: bool) -> Self {
+        self.two_sided = two_sided;
+        self
+    }
 }

@@ -13,6 +13,7 @@ mod texture;
 
 pub use camera::{Camera, CameraFrame};
 pub use error::SceneError;
+pub use lights::LightError;
 pub use texture::{Encoding, Texture};
 
 use glam::{Vec2, Vec3};

@@ -467,34 +467,20 @@ fn parse_light(mut sec: Section) -> Result<Light> {
         ));
     }
     let two_sided = sec.opt_bool("two_sided")?.is_some_and(|x| x.0);
-    if ty == "quad" {
+    // The radiance is checked before the geometry keys are read, so a table
+    // with several problems reports the first one in key order.
+    let light = if ty == "quad" {
         let (c, u, v) = quad_frame(&sec)?;
-        let cross = u.cross(v);
-        return Ok(Light {
-            // Right-hand order: the emitting side is normalize(cross(u, v)).
-            vertices: vec![c - u - v, c + u - v, c + u + v, c - u + v],
-            radiance,
-            two_sided,
-            normal: cross.normalize(),
-            area: 4.0 * cross.length(),
-            quad: Some((c, u, v)),
-        });
-    }
-    let f = sec.require("vertices")?;
-    let items = sec.array_of(&f)?;
-    let vertices = items
-        .iter()
-        .enumerate()
-        .map(|(i, v)| sec.vec3_elem(&f, i, v))
-        .collect::<Result<Vec<Vec3>>>()?;
-    let (normal, area) = lights::polygon_geometry(&vertices)
-        .map_err(|msg| sec.err(f.line, format!("vertices: {msg}")))?;
-    Ok(Light {
-        vertices,
-        radiance,
-        two_sided,
-        normal,
-        area,
-        quad: None,
-    })
+        Light::quad(c, u, v, radiance).map_err(|e| sec.err(sec.line, e))?
+    } else {
+        let f = sec.require("vertices")?;
+        let items = sec.array_of(&f)?;
+        let vertices = items
+            .iter()
+            .enumerate()
+            .map(|(i, v)| sec.vec3_elem(&f, i, v))
+            .collect::<Result<Vec<Vec3>>>()?;
+        Light::polygon(vertices, radiance).map_err(|e| sec.err(f.line, e))?
+    };
+    Ok(light.with_two_sided(two_sided))
 }

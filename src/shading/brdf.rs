@@ -144,14 +144,14 @@ pub fn eval_local(wi: Vec3, wo: Vec3, diffuse: Vec3, specular: Vec3, roughness: 
 /// it has one (so an isotropic lobe's view lies in the xz plane, as the LTC
 /// table expects), otherwise any perpendicular.
 #[derive(Clone, Copy, Debug)]
-pub struct Frame {
+pub struct ShadingBasis {
     pub x: Vec3,
     pub y: Vec3,
     pub z: Vec3,
 }
 
-impl Frame {
-    pub fn from_normal_view(n: Vec3, wo: Vec3) -> Frame {
+impl ShadingBasis {
+    pub fn from_normal_view(n: Vec3, wo: Vec3) -> ShadingBasis {
         let t = wo - n * n.dot(wo);
         let l2 = t.length_squared();
         let x = if l2 > 1e-12 {
@@ -159,7 +159,7 @@ impl Frame {
         } else {
             n.any_orthonormal_vector()
         };
-        Frame {
+        ShadingBasis {
             x,
             y: n.cross(x),
             z: n,
@@ -174,7 +174,7 @@ impl Frame {
 
 /// Full BRDF in world space for unit `n`, `wi`, `wo`.
 pub fn eval(n: Vec3, wi: Vec3, wo: Vec3, diffuse: Vec3, specular: Vec3, roughness: f32) -> Vec3 {
-    let f = Frame::from_normal_view(n, wo);
+    let f = ShadingBasis::from_normal_view(n, wo);
     eval_local(f.to_local(wi), f.to_local(wo), diffuse, specular, roughness)
 }
 

@@ -23,7 +23,7 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 pub const LANES: usize = 4;
 
 /// The element type of the batch's lanes.
-pub type E = f64;
+pub type BatchFloat = f64;
 
 /// A lane element: `f64` or `f32`.
 pub trait Elem:
@@ -497,8 +497,8 @@ mod tests {
         assert_eq!(a.min(b), m.select(a, b));
         assert_eq!(a.max(b), m.select(b, a));
         let mut c = a;
-        c.0[1] = E::NAN;
-        c.0[2] = E::INFINITY;
+        c.0[1] = BatchFloat::NAN;
+        c.0[2] = BatchFloat::INFINITY;
         let f = c.finite();
         assert!(!f.lane(1) && !f.lane(2) && f.lane(0) && f.lane(3));
         assert!(m.any() && !Mask::NONE.any());

@@ -40,7 +40,7 @@
 //! path.
 
 use super::brdf::MIN_ALPHA;
-use super::lanes::{E, Mask, Wide, Wide3, add3, dot};
+use super::lanes::{BatchFloat, Mask, Wide, Wide3, add3, dot};
 use super::ltc::{self, CellLanes, LtcCell};
 use super::ltc_correction::{CorrectionLanes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
@@ -55,7 +55,7 @@ pub use super::lanes::LANES;
 pub const REL_TOL: f32 = 2e-4;
 /// Rounding of one edge term, in ulps of its magnitude bound (rotation,
 /// LTC map, cross and dot products).
-const ERR_ULPS: E = 16.0;
+const ERR_ULPS: BatchFloat = 16.0;
 /// A point this close to the light's plane (relative to its distance) is
 /// decided by the scalar path (exactly as it decides it).
 const SIDE_TOL: f32 = 1e-5;
@@ -67,9 +67,9 @@ const SIDE_TOL: f32 = 1e-5;
 pub struct BatchLight {
     /// Vertex count; 0 for a light that cannot emit (as `ShadingLight`).
     n: usize,
-    v: [[E; 3]; MAX_LIGHT_VERTICES],
-    e: [[E; 3]; MAX_LIGHT_VERTICES],
-    normal: [E; 3],
+    v: [[BatchFloat; 3]; MAX_LIGHT_VERTICES],
+    e: [[BatchFloat; 3]; MAX_LIGHT_VERTICES],
+    normal: [BatchFloat; 3],
     radiance: Vec3,
     two_sided: bool,
     scalar: ShadingLight,
@@ -81,19 +81,19 @@ impl BatchLight {
         // or degenerate); the batch follows it.
         let scalar = ShadingLight::new(light);
         let n = scalar.vertex_count();
-        let mut v = [[0.0 as E; 3]; MAX_LIGHT_VERTICES];
-        let mut e = [[0.0 as E; 3]; MAX_LIGHT_VERTICES];
+        let mut v = [[0.0 as BatchFloat; 3]; MAX_LIGHT_VERTICES];
+        let mut e = [[0.0 as BatchFloat; 3]; MAX_LIGHT_VERTICES];
         for i in 0..n {
             let (a, b) = (light.vertices[i], light.vertices[(i + 1) % n]);
-            v[i] = a.as_dvec3().to_array().map(|x| x as E);
+            v[i] = a.as_dvec3().to_array().map(|x| x as BatchFloat);
             let d = b.as_dvec3() - a.as_dvec3();
-            e[i] = [d.x as E, d.y as E, d.z as E];
+            e[i] = [d.x as BatchFloat, d.y as BatchFloat, d.z as BatchFloat];
         }
         BatchLight {
             n,
             v,
             e,
-            normal: light.normal.as_dvec3().to_array().map(|x| x as E),
+            normal: light.normal.as_dvec3().to_array().map(|x| x as BatchFloat),
             radiance: light.radiance,
             two_sided: light.two_sided,
             scalar,
@@ -253,7 +253,7 @@ const BLANK_CELL: LtcCell = LtcCell {
     err: 0.0,
 };
 
-/// `Frame::from_normal_view` of each lane (rows x, y, z as world vectors),
+/// `ShadingBasis::from_normal_view` of each lane (rows x, y, z as world vectors),
 /// and `n . wo` (the scalar path's LTC lookup cosine). Lanes whose view
 /// lies along the normal take the scalar fallback, lane by lane.
 #[inline(always)]
@@ -339,7 +339,7 @@ fn count(m: Mask) -> u64 {
 }
 
 #[inline(always)]
-fn splat3(v: [impl Into<E> + Copy; 3]) -> Wide3 {
+fn splat3(v: [impl Into<BatchFloat> + Copy; 3]) -> Wide3 {
     [Wide::splat(v[0]), Wide::splat(v[1]), Wide::splat(v[2])]
 }
 
@@ -363,7 +363,7 @@ fn ltc_map(m: &[Wide; 4], v: &Wide3) -> Wide3 {
 /// of a zero vector stays finite: its edges add 0).
 #[inline(always)]
 fn length(v: &Wide3) -> Wide {
-    dot(v, v).max(Wide::splat(E::MIN_POSITIVE)).sqrt()
+    dot(v, v).max(Wide::splat(BatchFloat::MIN_POSITIVE)).sqrt()
 }
 
 /// `1 / |v|` per lane (see `length`).
@@ -374,7 +374,7 @@ fn inv_len(v: &Wide3) -> Wide {
 
 /// Its relative error bound (`polygon::theta_over_sin_pos`, degree 10,
 /// 2.1e-9), carried into each lane's error bound.
-const POLY_ERR_F64: E = 3e-9;
+const POLY_ERR_F64: BatchFloat = 3e-9;
 
 /// `polygon::THETA_SIN_POLY` in every lane, as whole vectors. (Meant to let
 /// the multiply-adds read them from memory; the instruction profile
@@ -597,7 +597,7 @@ fn clipped_sum<const N: usize>(
         let ix = Wide::ONE
             / x[0]
                 .mul_add(x[0], x[1] * x[1])
-                .max(Wide::splat(E::MIN_POSITIVE))
+                .max(Wide::splat(BatchFloat::MIN_POSITIVE))
                 .sqrt();
         let leaving = ina.and_not(inb);
         let arriving = inb.and_not(ina);
@@ -737,7 +737,8 @@ fn clip_lane<const N: usize, const K: usize>(
             } else {
                 next[k] = Some(ev * (-b.z / den));
             }
-            slack += 32.0 * E::EPSILON * (norm1(a) + norm1(ev)) / x.length().max(f64::MIN_POSITIVE);
+            slack += 32.0 * BatchFloat::EPSILON * (norm1(a) + norm1(ev))
+                / x.length().max(f64::MIN_POSITIVE);
             pts[k] = x;
             k += 1;
         }
@@ -749,7 +750,7 @@ fn clip_lane<const N: usize, const K: usize>(
         let (p, ev, real) = if s < k {
             let to = pts[if s + 1 == k { 0 } else { s + 1 }];
             let ev = next[s].unwrap_or_else(|| {
-                slack += 4.0 * E::EPSILON * (norm1(pts[s]) + norm1(to))
+                slack += 4.0 * BatchFloat::EPSILON * (norm1(pts[s]) + norm1(to))
                     / to.length().max(f64::MIN_POSITIVE);
                 to - pts[s]
             });
@@ -798,8 +799,8 @@ fn lobes_n<const N: usize, const K: usize>(
     // and edges rotated from the light's own (exact) edge vectors.
     let mut q = [[Wide::ZERO; 3]; N];
     let mut e = [[Wide::ZERO; 3]; N];
-    let mut min_z = Wide::splat(E::INFINITY);
-    let mut max_z = Wide::splat(E::NEG_INFINITY);
+    let mut min_z = Wide::splat(BatchFloat::INFINITY);
+    let mut max_z = Wide::splat(BatchFloat::NEG_INFINITY);
     for i in 0..N {
         let v = splat3(light.v[i]);
         q[i] = rotate(&b.frame, &[v[0] - p[0], v[1] - p[1], v[2] - p[2]]);
@@ -875,7 +876,7 @@ fn shade<const K: usize>(
     fast: Mask,
     out: &mut LaneLobes,
 ) -> Mask {
-    let eps = Wide::splat(ERR_ULPS * E::EPSILON * 0.5 + POLY_ERR_F64);
+    let eps = Wide::splat(ERR_ULPS * BatchFloat::EPSILON * 0.5 + POLY_ERR_F64);
     let (sum_l, bnd_l, len_l, u, dots) = lambert_sum(q, e, fast);
     // A contour sum's error: `eps` of its bound, plus the clip's slack.
     let err = |bound: Wide| match clipped {
@@ -950,7 +951,7 @@ fn shade<const K: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shading::brdf::Frame;
+    use crate::shading::brdf::ShadingBasis;
 
     #[test]
     fn lane_frames_are_the_scalar_frames_bit_for_bit() {
@@ -973,7 +974,7 @@ mod tests {
             let wos = [0, 1, 2].map(|k| v4(&|l| group[l].1[k]));
             let (rows, cos_v) = frames(&ns, &wos);
             for (l, &(n, wo)) in group.iter().enumerate() {
-                let want = Frame::from_normal_view(n, wo);
+                let want = ShadingBasis::from_normal_view(n, wo);
                 let got = rows.map(|r| Vec3::new(r[0][l], r[1][l], r[2][l]));
                 assert_eq!(got, [want.x, want.y, want.z], "n {n}, wo {wo}");
                 assert_eq!(cos_v[l].to_bits(), n.dot(wo).to_bits(), "n {n}, wo {wo}");

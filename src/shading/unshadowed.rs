@@ -14,7 +14,7 @@
 //! - Views below the horizon (shading normals) use the grazing entry of the
 //!   table; `roughness` is clamped to [0, 1].
 
-use super::brdf::Frame;
+use super::brdf::ShadingBasis;
 use super::ltc;
 use super::ltc_correction::lobe_factors;
 use super::polygon::{
@@ -107,7 +107,7 @@ pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Ve
         return zero;
     }
 
-    let frame = Frame::from_normal_view(sp.n, sp.wo);
+    let frame = ShadingBasis::from_normal_view(sp.n, sp.wo);
     let (fx, fy, fz) = (frame.x.as_dvec3(), frame.y.as_dvec3(), frame.z.as_dvec3());
     let mut poly = Polygon {
         v: [DVec3::ZERO; MAX_VERTICES],

@@ -106,7 +106,7 @@ impl Session {
     /// request is left to the caller, who knows what was shown.
     pub fn apply(&mut self, action: Action) -> bool {
         match action {
-            Action::Mode(m) if m.available() && m != self.settings.mode => {
+            Action::Mode(m) if m != self.settings.mode => {
                 self.settings.mode = m;
                 self.reset();
             }

@@ -83,11 +83,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
     let pool = embree::thread_pool(opts.threads)?;
     let settings = RenderSettings {
-        mode: if opts.mode.available() {
-            opts.mode
-        } else {
-            Mode::Unshadowed
-        },
+        mode: opts.mode,
         spp: opts.spp.max(1),
         seed: opts.seed,
         denoise: opts.denoise,

@@ -1,7 +1,7 @@
 //! Geometric edges stop the filter: the ratio of one surface does not bleed
 //! into another at a different depth or orientation.
 
-use crate::support::denoise::{Frame, Rng, Surface, ratio, sample};
+use crate::support::denoise::{Frame, Rng, Surface, luminance_ratio, sample};
 use penumbra::denoise::{DenoiseSettings, Denoiser};
 
 const W: u32 = 96;
@@ -31,7 +31,7 @@ fn border_means(f: &Frame, settings: &DenoiseSettings) -> (f32, f32) {
         for y in 0..H {
             for x in cols.clone() {
                 let i = (y * W + x) as usize;
-                s += ratio(un[i], sn[i]);
+                s += luminance_ratio(sn[i], un[i]);
                 n += 1.0;
             }
         }

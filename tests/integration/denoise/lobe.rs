@@ -2,7 +2,7 @@
 //! glossy lobe (a shadow reflected in a near-mirror) is not averaged away by
 //! the spatial filter, while on a diffuse receiver the same step is.
 
-use crate::support::denoise::{Frame, Rng, ratio, sample};
+use crate::support::denoise::{Frame, Rng, luminance_ratio, sample};
 use glam::Vec3;
 use penumbra::denoise::{DenoiseSettings, Denoiser, GuideBuffers, Lobe};
 
@@ -50,7 +50,7 @@ fn border_means(f: &Frame, lobe: &[Lobe]) -> (f32, f32) {
         for y in 0..H {
             for x in cols.clone() {
                 let i = (y * W + x) as usize;
-                s += ratio(un[i], sn[i]);
+                s += luminance_ratio(sn[i], un[i]);
                 n += 1.0;
             }
         }
@@ -134,7 +134,10 @@ fn on_a_near_mirror_a_pixel_whose_samples_carry_no_weight_takes_its_neighbours_r
     sn[weak] = un[weak];
     sn[strong] = un[strong];
     Denoiser::new(W, H).denoise(&guide, &mut un, &mut sn, &DenoiseSettings::default());
-    let (r_weak, r_strong) = (ratio(un[weak], sn[weak]), ratio(un[strong], sn[strong]));
+    let (r_weak, r_strong) = (
+        luminance_ratio(sn[weak], un[weak]),
+        luminance_ratio(sn[strong], un[strong]),
+    );
     assert!(r_weak < 0.05, "weightless lit sample kept ratio {r_weak}");
     assert!(
         r_strong > 0.95,

@@ -1,6 +1,6 @@
 //! The denoised ratio converges on a static penumbra far faster than the raw one.
 
-use crate::support::denoise::{Frame, Rng, ratio, sample, soft_edge};
+use crate::support::denoise::{Frame, Rng, luminance_ratio, sample, soft_edge};
 use penumbra::denoise::{DenoiseSettings, Denoiser};
 
 const W: u32 = 128;
@@ -22,7 +22,7 @@ fn true_ratio(i: usize) -> f32 {
 fn rmse(un: &[glam::Vec3], sn: &[glam::Vec3]) -> f32 {
     let n = un.len();
     let se: f32 = (0..n)
-        .map(|i| (ratio(un[i], sn[i]) - true_ratio(i)).powi(2))
+        .map(|i| (luminance_ratio(sn[i], un[i]) - true_ratio(i)).powi(2))
         .sum();
     (se / n as f32).sqrt()
 }

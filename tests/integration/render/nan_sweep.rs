@@ -275,7 +275,7 @@ fn sweep_scene(scene: &Scene, what: &str, findings: &mut Vec<String>) -> usize {
             .chain(rated.then_some((true, VisibilityRate::Quarter)))
             .map(move |(denoise, rate)| (mode, denoise, rate))
     });
-    for (mode, denoise, rate) in plans.filter(|(m, _, _)| m.available()) {
+    for (mode, denoise, rate) in plans {
         {
             let settings = RenderSettings {
                 mode,

@@ -3,7 +3,7 @@
 
 use crate::support::scene::{close, parse_ok, with};
 use glam::{Vec2, Vec3};
-use penumbra::scene::{Mesh, Texture};
+use penumbra::scene::{Light, LightError, Mesh, Texture};
 use std::time::Instant;
 
 fn one_object(obj: &str) -> Mesh {
@@ -302,4 +302,50 @@ fn texture_sampling_is_bilinear_and_wraps() {
     let edge = t.sample(Vec2::new(0.0, 0.75));
     assert!((edge[0] - 0.5).abs() < 1e-6);
     assert_eq!(t.sample(Vec2::new(f32::NAN, 0.5)), [0.0; 4]);
+}
+
+#[test]
+fn light_constructors_build_what_the_loader_builds() {
+    let quad = "[[light]]\ntype = \"quad\"\ncenter = [0.3,4,-1]\nu = [1,0,0.2]\nv = [0,0.1,0.5]\nradiance = [1,2,3]\ntwo_sided = true";
+    let loaded = &parse_ok(&with(quad)).lights[0];
+    let built = Light::quad(
+        Vec3::new(0.3, 4.0, -1.0),
+        Vec3::new(1.0, 0.0, 0.2),
+        Vec3::new(0.0, 0.1, 0.5),
+        Vec3::new(1.0, 2.0, 3.0),
+    )
+    .unwrap()
+    .with_two_sided(true);
+    assert_eq!(&built, loaded);
+
+    let polygon = "[[light]]\ntype = \"polygon\"\nvertices = [[0,2,0],[1,2,0.1],[1.2,2,1],[0,2,1]]\nradiance = [4,4,4]";
+    let loaded = &parse_ok(&with(polygon)).lights[0];
+    let vertices = vec![
+        Vec3::new(0.0, 2.0, 0.0),
+        Vec3::new(1.0, 2.0, 0.1),
+        Vec3::new(1.2, 2.0, 1.0),
+        Vec3::new(0.0, 2.0, 1.0),
+    ];
+    let built = Light::polygon(vertices, Vec3::splat(4.0)).unwrap();
+    assert_eq!(&built, loaded);
+}
+
+#[test]
+fn light_constructors_refuse_what_the_loader_refuses() {
+    let (c, u) = (Vec3::ZERO, Vec3::X);
+    assert!(matches!(
+        Light::quad(c, u, 2.0 * u, Vec3::ONE),
+        Err(LightError::ZeroArea { .. })
+    ));
+    assert!(matches!(
+        Light::quad(c, u, Vec3::Z, Vec3::new(1.0, -0.5, 1.0)),
+        Err(LightError::NegativeRadiance(_))
+    ));
+    let collinear = vec![Vec3::ZERO, Vec3::X, 2.0 * Vec3::X];
+    assert!(matches!(
+        Light::polygon(collinear, Vec3::ONE),
+        Err(LightError::Polygon(_))
+    ));
+    let two = vec![Vec3::ZERO, Vec3::X];
+    assert!(Light::polygon(two, Vec3::ONE).is_err());
 }

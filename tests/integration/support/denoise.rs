@@ -100,7 +100,7 @@ impl Frame {
 }
 
 /// Denoised ratio as the composite sees it (1 where U_N carries nothing).
-pub fn ratio(un: Vec3, sn: Vec3) -> f32 {
+pub fn luminance_ratio(sn: Vec3, un: Vec3) -> f32 {
     let l = luminance(un);
     if l > 0.0 { luminance(sn) / l } else { 1.0 }
 }

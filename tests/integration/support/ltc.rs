@@ -183,7 +183,7 @@ pub fn reference(sp: &SurfacePoint, light: &Light, rel_tol: f64) -> Reference {
         return Reference::default();
     }
     let n = sp.n.as_dvec3();
-    let frame = brdf::Frame::from_normal_view(sp.n, sp.wo);
+    let frame = brdf::ShadingBasis::from_normal_view(sp.n, sp.wo);
     let setup = Setup {
         n,
         tx: frame.x.as_dvec3(),

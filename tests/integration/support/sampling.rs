@@ -6,14 +6,9 @@ use penumbra::scene::Light;
 
 /// A quad light as the scene loader builds it (corners c ± u ± v, normal u×v).
 pub fn quad_light(c: Vec3, u: Vec3, v: Vec3, two_sided: bool) -> Light {
-    Light {
-        vertices: vec![c - u - v, c + u - v, c + u + v, c - u + v],
-        radiance: Vec3::ONE,
-        two_sided,
-        normal: u.cross(v).normalize(),
-        area: 4.0 * u.cross(v).length(),
-        quad: Some((c, u, v)),
-    }
+    Light::quad(c, u, v, Vec3::ONE)
+        .expect("a test quad spans an area")
+        .with_two_sided(two_sided)
 }
 
 /// A convex polygon light of unit radiance; normal by the right-hand rule.
