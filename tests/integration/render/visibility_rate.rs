@@ -259,7 +259,14 @@ fn upsample_fixture(
     };
     let n = (EDGE_W * EDGE_H) as usize;
     let (mut un, mut sn, mut orphans) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
-    upsample(&full, &q, &vec![Vec3::ONE; n], &mut un, &mut sn, &mut orphans);
+    upsample(
+        &full,
+        &q,
+        &vec![Vec3::ONE; n],
+        &mut un,
+        &mut sn,
+        &mut orphans,
+    );
     (un, sn, orphans)
 }
 
