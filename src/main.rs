@@ -82,6 +82,23 @@ struct SceneArgs {
     exposure: f32,
 }
 
+impl SceneArgs {
+    /// What every frame of `render` and `view` runs with: the one place the
+    /// command line's flags become the renderer's settings.
+    fn settings(&self) -> RenderSettings {
+        RenderSettings {
+            mode: self.mode,
+            spp: self.spp.max(1),
+            seed: self.seed,
+            denoise: self.denoise == Switch::On,
+            taa: self.taa == Switch::On,
+            visibility: self.visibility_rate,
+            settle: self.settle == Switch::On,
+            ..RenderSettings::default()
+        }
+    }
+}
+
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Switch {
     On,
@@ -287,16 +304,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     let camera = scene.camera;
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
     let pool = embree::thread_pool(c.threads)?;
-    let settings = RenderSettings {
-        mode: c.mode,
-        spp: c.spp.max(1),
-        seed: c.seed,
-        denoise: c.denoise == Switch::On,
-        taa: c.taa == Switch::On,
-        visibility: c.visibility_rate,
-        settle: c.settle == Switch::On,
-        ..RenderSettings::default()
-    };
+    let settings = c.settings();
     let mut frame = Frame::new(w, h);
     let mut last = None;
     let mut written = Vec::new();
@@ -366,18 +374,13 @@ impl FramePattern {
 }
 
 fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {
+    let settings = a.common.settings();
     penumbra::view::ViewOptions {
         scene: a.common.scene,
         width: a.common.width,
         height: a.common.height,
-        mode: a.common.mode,
-        spp: a.common.spp.max(1),
+        settings,
         threads: a.common.threads,
-        seed: a.common.seed,
-        denoise: a.common.denoise == Switch::On,
-        taa: a.common.taa == Switch::On,
-        visibility: a.common.visibility_rate,
-        settle: a.common.settle == Switch::On,
         exposure: a.common.exposure,
         overlay: a.overlay == Switch::On,
         target_fps: a.target_fps,

@@ -8,7 +8,7 @@ use super::scale::DynamicScale;
 use super::script::{Player, SCRIPT_DT, Script};
 use super::session::Session;
 use crate::embree::{self, Device};
-use crate::render::{Mode, RenderSettings, VisibilityRate, World};
+use crate::render::{RenderSettings, World};
 use crate::scene::Scene;
 use anyhow::{Context, Result, bail};
 use minifb::{Key, KeyRepeat, MouseButton, MouseMode, ScaleMode, Window, WindowOptions};
@@ -20,17 +20,9 @@ pub struct ViewOptions {
     pub scene: Option<PathBuf>,
     pub width: Option<u32>,
     pub height: Option<u32>,
-    pub mode: Mode,
-    pub spp: u32,
+    /// The settings of the first frame (the keys change them).
+    pub settings: RenderSettings,
     pub threads: usize,
-    pub seed: u32,
-    pub denoise: bool,
-    /// Per-frame jitter and temporal resolve (`RenderSettings::taa`).
-    pub taa: bool,
-    /// Which pixels draw visibility samples (`RenderSettings::visibility`).
-    pub visibility: VisibilityRate,
-    /// Settled tiles draw no samples under a still camera (`RenderSettings::settle`).
-    pub settle: bool,
     pub exposure: f32,
     /// Scale the render resolution to hold this frame rate (the window
     /// stretches the frame to its size).
@@ -82,17 +74,7 @@ pub fn run(opts: ViewOptions) -> Result<()> {
     let camera = scene.camera;
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
     let pool = embree::thread_pool(opts.threads)?;
-    let settings = RenderSettings {
-        mode: opts.mode,
-        spp: opts.spp.max(1),
-        seed: opts.seed,
-        denoise: opts.denoise,
-        taa: opts.taa,
-        visibility: opts.visibility,
-        settle: opts.settle,
-        ..RenderSettings::default()
-    };
-    let mut session = Session::new(settings, &camera, w, h, opts.exposure, opts.overlay);
+    let mut session = Session::new(opts.settings, &camera, w, h, opts.exposure, opts.overlay);
     session.dynamic = opts.target_fps.and_then(DynamicScale::new);
     let player = script.map(Player::new);
     fly(
