@@ -8,7 +8,7 @@ use super::estimate::{SampleRecord, SampleSink, SampleStream, Strategy, analytic
 use super::frame::{Frame, RenderSettings};
 use super::gbuffer::{GSample, PixelKind};
 use super::plan::{FramePlan, VisibilityRate};
-use super::quads::QUAD_ORDER;
+use super::quads::{QUAD_ORDER, sampled_pixel};
 use super::shadow::ShadowBatch;
 use super::world::World;
 use glam::Vec3;
@@ -89,6 +89,10 @@ pub fn replay_pixel(
         frame_sn: frame.sn[k],
         frame_color: frame.color[k],
     };
+    if g.kind != PixelKind::Surface {
+        out.note = Some("not a receiver surface: no samples".into());
+        return Ok(out);
+    }
     let last = frame.frame_index.wrapping_sub(1);
     let spp = settings.spp;
     let Some(estimator) = plan.estimator else {
@@ -116,7 +120,9 @@ pub fn replay_pixel(
         }
         VisibilityRate::Quarter => {
             let offset = QUAD_ORDER[(last % 4) as usize];
-            if (x % 2, y % 2) == offset || quad_edge_sample(frame, x, y, offset) {
+            // Clamped into the frame: an odd last row or column samples itself.
+            let (sx, sy) = sampled_pixel(x / 2, y / 2, offset, frame.width, frame.height);
+            if (sx, sy) == (x, y) {
                 streams.push(("its quad's samples", stream((last / 4).wrapping_mul(spp))));
             }
             if frame.sampled_itself(k) {
@@ -128,9 +134,7 @@ pub fn replay_pixel(
             if streams.is_empty() {
                 out.note = Some(format!(
                     "at the quarter rate this frame's samples of its quad were drawn at \
-                     pixel ({}, {}); this pixel's ratio is upsampled from the quads around it",
-                    (x & !1) + offset.0,
-                    (y & !1) + offset.1
+                     pixel ({sx}, {sy}); this pixel's ratio is upsampled from the quads around it"
                 ));
             }
         }
@@ -148,17 +152,7 @@ pub fn replay_pixel(
         d.why = why;
         out.draws.push(d);
     }
-    if g.kind != PixelKind::Surface && out.note.is_none() {
-        out.note = Some("not a receiver surface: no samples".into());
-    }
     Ok(out)
-}
-
-/// Whether the last column or row of an odd-sized frame holds the pixel
-/// its quad sampled (the offset is clamped into the frame).
-fn quad_edge_sample(frame: &Frame, x: u32, y: u32, offset: (u32, u32)) -> bool {
-    let (sx, sy) = super::quads::sampled_pixel(x / 2, y / 2, offset, frame.width, frame.height);
-    (sx, sy) == (x, y)
 }
 
 fn draw(
