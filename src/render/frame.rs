@@ -4,9 +4,7 @@
 //! composite and the temporal resolve. State that outlives a frame
 //! (histories, previous camera, reference accumulation) lives here too.
 
-use super::estimate::{
-    Estimator, SampleSink, SampleStream, analytic_u_band, draw_samples, ratio, surface_point,
-};
+use super::estimate::{Estimator, SampleSink, SampleStream, analytic_u_band, draw_samples, ratio};
 use super::gbuffer::GSample;
 use super::guides::{GuideMut, Guides};
 use super::plan::{Composite, FramePlan, ResolveInput, VisibilityRate};
@@ -20,7 +18,6 @@ use crate::denoise::{
 };
 use crate::sampling::sequence::frame_jitter;
 use crate::scene::{Camera, CameraFrame, Light};
-use crate::shading::unshadowed_prepared;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -840,8 +837,8 @@ fn quad_count(width: u32, height: u32) -> usize {
     width.div_ceil(2) as usize * height.div_ceil(2) as usize
 }
 
-/// The samples of pixels no quad vouched for: `U` per light (for the
-/// light choice) by the scalar path, then the plan's estimator.
+/// The samples of the pixels that sample themselves at the reduced rate:
+/// `U` per light (for the light choice), then the plan's estimator.
 fn orphan_samples(
     job: &BandJob,
     gbuf: &[GSample],
@@ -852,21 +849,21 @@ fn orphan_samples(
         return Vec::new();
     };
     let world = job.world;
-    let lights = world.lights.shading();
-    let mut per_light = vec![Vec3::ZERO; lights.len()];
+    // `U` per light (for the light choice) by the batched path the band
+    // pass takes, so each pixel gets the values its band computed.
+    let points: Vec<GSample> = chunk.iter().map(|&k| gbuf[k as usize]).collect();
+    let lights = world.lights.len();
+    let mut per_light = vec![Vec3::ZERO; points.len() * lights];
+    let (mut total, mut share) = (vec![Vec3::ZERO; points.len()], vec![0.0; points.len()]);
+    analytic_u_band(world, &points, &mut per_light, &mut total, &mut share);
     let mut batch = ShadowBatch::default();
     let mut out: Vec<(u32, Vec3, Vec3)> = Vec::with_capacity(chunk.len());
-    for (m, &k) in chunk.iter().enumerate() {
-        let g = &gbuf[k as usize];
-        let sp = surface_point(g);
-        for (slot, light) in per_light.iter_mut().zip(lights) {
-            *slot = unshadowed_prepared(&sp, light);
-        }
+    for (m, (&k, g)) in chunk.iter().zip(&points).enumerate() {
         let mut un = Vec3::ZERO;
         draw_samples(
             world,
             g,
-            &per_light,
+            &per_light[m * lights..(m + 1) * lights],
             u[k as usize],
             est,
             job.stream(k),
