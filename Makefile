@@ -56,11 +56,14 @@ lint: deps
 	$(CARGO) clippy --release --all-targets -- -D warnings
 
 # Criterion micro-benchmarks (numbers only: the benches turn criterion's HTML
-# plots off, which panicked for want of a font), then speed against error on the shipped scenes
+# plots off, which panicked for want of a font), then speed against error on the shipped scenes,
+# and the many-light hall against its first two lights
 # (references are cached under target/penumbra-cache; the first run renders them).
 bench: build
 	$(CARGO) bench
 	$(BIN) bench --json target/bench.json --plot docs/speed-vs-error.png
+	$(BIN) bench scenes/hall.toml --light-subset 0,1 --only "ratio+dn,ratio+dn 1/4,unshadowed" \
+	  --spp 1 --width 640 --height 360 --json target/bench-hall.json
 
 # The smoke run: seconds, small frames, a cheap reference.
 bench-quick: build

@@ -4,7 +4,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use penumbra::embree::{self, Device};
 use penumbra::output::{self, Aov};
-use penumbra::render::{Frame, Mode, RenderSettings, VisibilityRate, World};
+use penumbra::render::{Frame, LIGHT_TOLERANCE, Mode, RenderSettings, VisibilityRate, World};
 use penumbra::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -77,6 +77,12 @@ struct SceneArgs {
     /// on | off.
     #[arg(long, default_value = "on")]
     settle: Switch,
+    /// Light culling of the analytic U: per 8-pixel-wide tile, lights whose
+    /// bounded share is negligible are left out, so that every pixel's U is
+    /// at least 1 - T of every light's sum; 0 evaluates every light at every
+    /// pixel.
+    #[arg(long, default_value_t = LIGHT_TOLERANCE, value_parser = parse_tolerance, allow_negative_numbers = true)]
+    light_tolerance: f32,
     /// Exposure in stops for PNG and the window.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
@@ -94,6 +100,7 @@ impl SceneArgs {
             taa: self.taa == Switch::On,
             visibility: self.visibility_rate,
             settle: self.settle == Switch::On,
+            light_tolerance: self.light_tolerance,
             ..RenderSettings::default()
         }
     }
@@ -128,6 +135,16 @@ struct RenderArgs {
     /// strategy, pdfs, weight, visibility) and the frame's values there.
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
     debug_pixel: Option<(u32, u32)>,
+}
+
+/// A light culling tolerance: a number in [0, 0.5].
+fn parse_tolerance(s: &str) -> std::result::Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(t) if (0.0..=0.5).contains(&t) => Ok(t),
+        _ => Err(format!(
+            "\"{s}\" is not a light tolerance (a number from 0 to 0.5, e.g. 0.01)"
+        )),
+    }
 }
 
 /// `X,Y` as two pixel coordinates.
@@ -200,6 +217,13 @@ struct BenchArgs {
     /// (comma-separated, e.g. "ratio+dn,ratio+dn 1/4").
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
+    /// Measure each scene also with only these of its lights (by position
+    /// in the file, from 0, e.g. 0,1), in the same run.
+    #[arg(long, value_delimiter = ',')]
+    light_subset: Vec<usize>,
+    /// The light culling tolerance of every measured row (see render --help).
+    #[arg(long, default_value_t = LIGHT_TOLERANCE, value_parser = parse_tolerance, allow_negative_numbers = true)]
+    light_tolerance: f32,
     /// Where references are cached.
     #[arg(long, default_value = "target/penumbra-cache")]
     cache: PathBuf,
@@ -402,6 +426,8 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
     opts.frames = a.frames.unwrap_or(opts.frames);
     opts.reference_spp = a.ref_spp.unwrap_or(opts.reference_spp);
     opts.only = a.only;
+    opts.light_subset = a.light_subset;
+    opts.light_tolerance = a.light_tolerance;
     if !a.spp.is_empty() {
         if a.spp.contains(&0) {
             bail!("--spp must be at least 1");

@@ -4,7 +4,9 @@
 //! composite and the temporal resolve. State that outlives a frame
 //! (histories, previous camera, reference accumulation) lives here too.
 
-use super::estimate::{Estimator, SampleSink, SampleStream, analytic_u_band, draw_samples, ratio};
+use super::estimate::{
+    Estimator, SampleSink, SampleStream, UCounts, analytic_u_band, draw_samples, ratio,
+};
 use super::gbuffer::GSample;
 use super::guides::{GuideMut, Guides};
 use super::plan::{Composite, FramePlan, ResolveInput, VisibilityRate};
@@ -49,7 +51,15 @@ pub struct RenderSettings {
     /// lit or in umbra, with a long history) draw no samples, but for a
     /// periodic refresh (denoised, full rate).
     pub settle: bool,
+    /// The `U` stage's light culling: every surface pixel's `U` is at
+    /// least `1 - light_tolerance` of the sum over every light
+    /// (`analytic_u_band`); 0 evaluates every light at every pixel.
+    pub light_tolerance: f32,
 }
+
+/// The shipped light culling tolerance: a fiftieth of `U`, well inside
+/// the LTC fit's own error (docs/accuracy.md).
+pub const LIGHT_TOLERANCE: f32 = 0.02;
 
 impl Default for RenderSettings {
     fn default() -> Self {
@@ -62,6 +72,7 @@ impl Default for RenderSettings {
             taa: true,
             visibility: VisibilityRate::default(),
             settle: true,
+            light_tolerance: LIGHT_TOLERANCE,
         }
     }
 }
@@ -80,6 +91,7 @@ struct BandJob<'a, 'd> {
     spp: u32,
     seed: u32,
     packet: PacketWidth,
+    light_tolerance: f32,
     clock: &'a PhaseClock,
 }
 
@@ -110,13 +122,16 @@ impl BandJob<'_, '_> {
         let lights = world.lights.len();
         scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
         scratch.spec_share.resize(gbuf.len(), 0.0);
-        analytic_u_band(
+        let counts = analytic_u_band(
             world,
             gbuf,
+            self.cam.width as usize,
+            self.light_tolerance,
             &mut scratch.per_light,
             u,
             &mut scratch.spec_share,
         );
+        clock.count_u(&counts);
         PhaseClock::add(&clock.u, t)
     }
 
@@ -216,6 +231,9 @@ pub struct PhaseTimes {
     pub wall: f64,
     /// Shadow rays traced this frame.
     pub shadow_rays: u64,
+    /// (surface pixel, light) pairs of the `U` stage: both lobes evaluated,
+    /// the Lambert lobe only, culled (`analytic_u_band`).
+    pub u_pairs: [u64; 3],
 }
 
 #[derive(Default)]
@@ -225,9 +243,16 @@ struct PhaseClock {
     shadow: AtomicU64,
     composite: AtomicU64,
     shadow_rays: AtomicU64,
+    u_pairs: [AtomicU64; 3],
 }
 
 impl PhaseClock {
+    fn count_u(&self, c: &UCounts) {
+        for (slot, n) in self.u_pairs.iter().zip([c.full, c.diffuse_only, c.culled]) {
+            slot.fetch_add(n, Ordering::Relaxed);
+        }
+    }
+
     fn add(slot: &AtomicU64, since: Instant) -> Instant {
         let now = Instant::now();
         slot.fetch_add((now - since).as_nanos() as u64, Ordering::Relaxed);
@@ -443,6 +468,7 @@ impl Frame {
             upsample,
             wall: start.elapsed().as_secs_f64(),
             shadow_rays: clock.shadow_rays.load(Ordering::Relaxed),
+            u_pairs: clock.u_pairs.each_ref().map(|c| c.load(Ordering::Relaxed)),
         }
     }
 
@@ -478,6 +504,7 @@ impl Frame {
             spp: settings.spp,
             seed: settings.seed,
             packet: settings.packet,
+            light_tolerance: settings.light_tolerance,
             clock,
         };
         let (width, height) = (self.width, self.height);
@@ -693,6 +720,7 @@ impl Frame {
             spp: settings.spp,
             seed: settings.seed,
             packet: settings.packet,
+            light_tolerance: settings.light_tolerance,
             clock,
         };
         let samples: Vec<(u32, Vec3, Vec3)> = self
@@ -806,6 +834,7 @@ impl Frame {
                             spp: 1,
                             seed: settings.seed,
                             packet: settings.packet,
+                            light_tolerance: settings.light_tolerance,
                             clock,
                         };
                         let t = job.run(y0, scratch, gbuf, u, un, sn);
@@ -855,7 +884,17 @@ fn orphan_samples(
     let lights = world.lights.len();
     let mut per_light = vec![Vec3::ZERO; points.len() * lights];
     let (mut total, mut share) = (vec![Vec3::ZERO; points.len()], vec![0.0; points.len()]);
-    analytic_u_band(world, &points, &mut per_light, &mut total, &mut share);
+    // One row: the tiles are runs of orphans, near in the frame.
+    let counts = analytic_u_band(
+        world,
+        &points,
+        points.len(),
+        job.light_tolerance,
+        &mut per_light,
+        &mut total,
+        &mut share,
+    );
+    job.clock.count_u(&counts);
     let mut batch = ShadowBatch::default();
     let mut out: Vec<(u32, Vec3, Vec3)> = Vec::with_capacity(chunk.len());
     for (m, (&k, g)) in chunk.iter().zip(&points).enumerate() {

@@ -6,6 +6,7 @@
 use crate::sampling::light::PreparedLight;
 use crate::scene::Light;
 use crate::shading::ShadingLight;
+use crate::shading::light_bound::LightExtent;
 use crate::shading::u_batch::BatchLight;
 
 /// One entry per declared light, in the scene's order, in each form.
@@ -15,6 +16,7 @@ pub struct Lights {
     sampling: Vec<PreparedLight>,
     shading: Vec<ShadingLight>,
     batch: Vec<BatchLight>,
+    extents: Vec<LightExtent>,
 }
 
 impl Lights {
@@ -24,6 +26,7 @@ impl Lights {
             sampling: declared.iter().map(PreparedLight::new).collect(),
             shading: declared.iter().map(ShadingLight::new).collect(),
             batch: declared.iter().map(BatchLight::new).collect(),
+            extents: declared.iter().map(LightExtent::new).collect(),
         }
     }
 
@@ -49,6 +52,12 @@ impl Lights {
     #[inline]
     pub fn batch(&self) -> &[BatchLight] {
         &self.batch
+    }
+
+    /// Per-light extents for the bounds of the `U` stage's light culling.
+    #[inline]
+    pub fn extents(&self) -> &[LightExtent] {
+        &self.extents
     }
 
     #[inline]

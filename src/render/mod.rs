@@ -14,7 +14,7 @@ pub mod shadow;
 pub mod solo;
 pub mod world;
 
-pub use frame::{Frame, PhaseTimes, RenderSettings};
+pub use frame::{Frame, LIGHT_TOLERANCE, PhaseTimes, RenderSettings};
 pub use gbuffer::{GSample, PixelKind};
 pub use mode::Mode;
 pub use plan::{FramePlan, VisibilityRate};

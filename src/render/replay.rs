@@ -5,7 +5,7 @@
 //! the G-buffer its samples were drawn on.
 
 use super::estimate::{SampleRecord, SampleSink, SampleStream, Strategy, analytic_u_band, ratio};
-use super::frame::{Frame, RenderSettings};
+use super::frame::{BAND_ROWS, Frame, RenderSettings};
 use super::gbuffer::{GSample, PixelKind};
 use super::plan::{FramePlan, VisibilityRate};
 use super::quads::{QUAD_ORDER, sampled_pixel};
@@ -68,15 +68,25 @@ pub fn replay_pixel(
     let k = (y * frame.width + x) as usize;
     let g = frame.gbuf[k];
     let lights = world.lights.len();
-    let mut per_light = vec![Vec3::ZERO; lights];
-    let (mut u, mut share) = ([Vec3::ZERO], [0.0]);
+    // `U` per light over the pixel's whole band, as the band pass computed
+    // it: its light culling works per tile of the band.
+    let width = frame.width as usize;
+    let band_pixels = BAND_ROWS as usize * width;
+    let band0 = k / band_pixels * band_pixels;
+    let band = &frame.gbuf[band0..(band0 + band_pixels).min(frame.gbuf.len())];
+    let mut band_lights = vec![Vec3::ZERO; band.len() * lights];
+    let (mut u, mut share) = (vec![Vec3::ZERO; band.len()], vec![0.0; band.len()]);
     analytic_u_band(
         world,
-        std::slice::from_ref(&g),
-        &mut per_light,
+        band,
+        width,
+        settings.light_tolerance,
+        &mut band_lights,
         &mut u,
         &mut share,
     );
+    let m = k - band0;
+    let per_light = band_lights[m * lights..(m + 1) * lights].to_vec();
     let mut out = PixelReplay {
         x,
         y,
@@ -144,7 +154,7 @@ pub fn replay_pixel(
             world,
             &g,
             &out.per_light,
-            u[0],
+            u[m],
             estimator,
             s,
             settings.packet,

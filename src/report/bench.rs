@@ -10,7 +10,9 @@ use super::results::*;
 use super::stats::{Spread, interior, interpolate_log_log, median, rel_mse, rel_mse_masked};
 use crate::embree::{self, Device};
 use crate::render::shadow::PacketWidth;
-use crate::render::{Frame, FramePlan, Mode, PhaseTimes, RenderSettings, VisibilityRate, World};
+use crate::render::{
+    Frame, FramePlan, LIGHT_TOLERANCE, Mode, PhaseTimes, RenderSettings, VisibilityRate, World,
+};
 use crate::scene::{Camera, Scene};
 use anyhow::{Context, Result};
 use glam::Vec3;
@@ -33,6 +35,10 @@ pub struct BenchOptions {
     pub quick: bool,
     /// Measure only the configurations of these labels (empty: all).
     pub only: Vec<String>,
+    /// Measure each scene also with only these of its lights (empty: no).
+    pub light_subset: Vec<usize>,
+    /// The light culling tolerance of every measured configuration.
+    pub light_tolerance: f32,
 }
 
 impl BenchOptions {
@@ -48,6 +54,8 @@ impl BenchOptions {
             cache_dir,
             quick: false,
             only: Vec::new(),
+            light_subset: Vec::new(),
+            light_tolerance: LIGHT_TOLERANCE,
         }
     }
 
@@ -63,6 +71,8 @@ impl BenchOptions {
             cache_dir,
             quick: true,
             only: Vec::new(),
+            light_subset: Vec::new(),
+            light_tolerance: LIGHT_TOLERANCE,
         }
     }
 
@@ -228,7 +238,18 @@ pub fn run(scenes: &[Option<PathBuf>], opts: &BenchOptions) -> Result<BenchRepor
             Some(p) => Scene::load(p)?,
             None => Scene::builtin(),
         };
-        reports.push(bench_scene(scene, path.as_deref(), opts, threads)?);
+        let subset = if opts.light_subset.is_empty() {
+            None
+        } else {
+            let mut fewer = scene.clone();
+            fewer.lights = light_subset(&scene, &opts.light_subset)?;
+            Some(fewer)
+        };
+        reports.push(bench_scene(scene, path.as_deref(), None, opts, threads)?);
+        if let Some(fewer) = subset {
+            let kept = Some(&opts.light_subset[..]);
+            reports.push(bench_scene(fewer, path.as_deref(), kept, opts, threads)?);
+        }
     }
     Ok(BenchReport {
         format: JSON_FORMAT,
@@ -256,6 +277,21 @@ pub fn run(scenes: &[Option<PathBuf>], opts: &BenchOptions) -> Result<BenchRepor
         },
         scenes: reports,
     })
+}
+
+/// The lights of `scene` at the positions `kept` (from 0, in file order).
+fn light_subset(scene: &Scene, kept: &[usize]) -> Result<Vec<crate::scene::Light>> {
+    kept.iter()
+        .map(|&i| {
+            scene.lights.get(i).cloned().with_context(|| {
+                format!(
+                    "--light-subset: light {i} does not exist ({} has {} lights, from 0)",
+                    scene.source.display(),
+                    scene.lights.len()
+                )
+            })
+        })
+        .collect()
 }
 
 /// One configuration's repeated frames.
@@ -329,10 +365,15 @@ fn frame_spread(runs: &[PhaseTimes]) -> Spread {
 fn bench_scene(
     scene: Scene,
     path: Option<&Path>,
+    subset: Option<&[usize]>,
     opts: &BenchOptions,
     threads: usize,
 ) -> Result<SceneReport> {
-    let name = path.map_or("<builtin>".into(), |p| p.display().to_string());
+    let mut name = path.map_or("<builtin>".into(), |p| p.display().to_string());
+    if let Some(kept) = subset {
+        let list: Vec<String> = kept.iter().map(|i| i.to_string()).collect();
+        name = format!("{name} (lights {})", list.join(","));
+    }
     let (triangles, lights) = (scene.triangle_count(), scene.lights.len());
     let camera = scene.camera;
     let device = Device::new().context("starting Embree")?;
@@ -360,6 +401,7 @@ fn bench_scene(
             opts.height,
             opts.reference_spp,
             &opts.cache_dir,
+            subset,
         )
     })?;
     let mask = {
@@ -401,7 +443,10 @@ fn bench_scene(
         let (mode, spp) = (cfg.mode, cfg.spp);
         bar.set_position(i as u64);
         bar.set_message(format!("{} at {spp} spp", cfg.label()));
-        let settings = cfg.settings();
+        let settings = RenderSettings {
+            light_tolerance: opts.light_tolerance,
+            ..cfg.settings()
+        };
         let m = bench.measure(&all, size, &settings, cfg.warmup(), Some((&truth, &mask)));
         let frame_ms = frame_spread(&m.runs);
         let stage = |f: fn(&PhaseTimes) -> f64| {
@@ -445,6 +490,18 @@ fn bench_scene(
             camera_rays: pixels,
             shadow_rays,
             mrays_per_s: (pixels + shadow_rays) as f64 / (frame_ms.median * 1e-3) * 1e-6,
+            u_lights: [0, 1].map(|i| {
+                median(
+                    &m.runs
+                        .iter()
+                        .map(|r| {
+                            let pairs: u64 = r.u_pairs.iter().sum();
+                            let surface = pairs as f64 / world.lights.len().max(1) as f64;
+                            r.u_pairs[i] as f64 / surface.max(1.0)
+                        })
+                        .collect::<Vec<_>>(),
+                )
+            }),
             rel_mse: rel,
             rel_mse_interior: rel_in,
             rel_mse_first_frame: if dn { m.first_frame_error } else { None },

@@ -145,7 +145,8 @@ fn write_cached(file: &Path, width: u32, height: u32, spp: u32, color: &[Vec3]) 
     Ok(())
 }
 
-/// The reference of `scene_file` at this size and sample count: read from
+/// The reference of `scene_file` (with only the lights `subset` when
+/// given: `world` holds those) at this size and sample count: read from
 /// `cache_dir` when present and valid, else rendered on the current rayon
 /// pool (progress on stderr) and stored there.
 pub fn reference(
@@ -155,11 +156,20 @@ pub fn reference(
     height: u32,
     spp: u32,
     cache_dir: &Path,
+    subset: Option<&[usize]>,
 ) -> Result<Reference> {
     if spp == 0 {
         bail!("the reference needs at least 1 sample per pixel");
     }
-    let key = cache_key(scene_file, width, height, spp)?;
+    let mut key = cache_key(scene_file, width, height, spp)?;
+    if let Some(kept) = subset {
+        // Fewer lights than the file's: another scene.
+        let mut h = Fnv(key);
+        for &i in kept {
+            h.chunk(&(i as u64).to_le_bytes());
+        }
+        key = h.0;
+    }
     let file = cache_dir.join(format!("reference-{key:016x}.bin"));
     if let Some(color) = read_cached(&file, width, height, spp) {
         return Ok(Reference {

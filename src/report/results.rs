@@ -106,6 +106,10 @@ pub struct ConfigReport {
     pub ceiling_ms: f64,
     /// Median frame time / `ceiling_ms`.
     pub over_ceiling: f64,
+    /// Lights the `U` stage evaluated per surface pixel, both lobes and
+    /// the Lambert lobe only (the rest culled), median over frames.
+    #[serde(default)]
+    pub u_lights: [f64; 2],
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]

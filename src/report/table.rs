@@ -162,16 +162,17 @@ fn stage_split(out: &mut String, s: &SceneReport) {
     let ns = |ms: f64| ms * 1e6 / pixels;
     let _ = writeln!(
         out,
-        "\nstage split, ns per pixel ({:.0} pixels); Embree alone: camera rays {:.1}, shadow rays (as many as the row traced) in brackets",
+        "\nstage split, ns per pixel ({:.0} pixels); lights: U's lights per surface pixel, both lobes + Lambert only; Embree alone: camera rays {:.1}, shadow rays (as many as the row traced) in brackets",
         pixels,
         ns(ceiling.primary_ms)
     );
     let _ = writeln!(
         out,
-        "{:<18} {:>7} {:>7} {:>15} {:>7} {:>8} {:>7} {:>7} {:>7}",
+        "{:<18} {:>7} {:>7} {:>9} {:>15} {:>7} {:>8} {:>7} {:>7} {:>7}",
         "config",
         "primary",
         "U",
+        "lights",
         "shadow (Embree)",
         "denoise",
         "upsample",
@@ -189,10 +190,11 @@ fn stage_split(out: &mut String, s: &SceneReport) {
         let embree_shadow = ns(per_ray * c.shadow_rays as f64);
         let _ = writeln!(
             out,
-            "{:<18} {:>7.1} {:>7.1} {:>15} {:>7.1} {:>8.1} {:>7.1} {:>7.1} {:>7.1}",
+            "{:<18} {:>7.1} {:>7.1} {:>9} {:>15} {:>7.1} {:>8.1} {:>7.1} {:>7.1} {:>7.1}",
             format!("{} {}spp", c.label, c.spp),
             ns(st.primary),
             ns(st.u),
+            format!("{:.1}+{:.1}", c.u_lights[0], c.u_lights[1]),
             format!("{:.1} ({:.1})", ns(st.shadow), embree_shadow),
             ns(st.denoise),
             ns(st.upsample),

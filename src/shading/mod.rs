@@ -2,7 +2,9 @@
 //! factor + LTC for GGX) on polygonal lights, and the project's LTC fit.
 
 pub mod brdf;
+pub mod far_light;
 pub mod lanes;
+pub mod light_bound;
 pub mod ltc;
 pub mod ltc_correction;
 pub mod ltc_fit;

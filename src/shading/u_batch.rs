@@ -317,13 +317,29 @@ pub struct LaneCounts {
 /// (diffuse, specular) lobes of `light` for every lane of `batch`, as
 /// `unshadowed_lobes_prepared` gives them (zero for inactive lanes).
 pub fn lobes_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) -> LaneCounts {
+    lobes_of(batch, light, true, out)
+}
+
+/// `lobes_batch` without the GGX lobe (its specular lobes are zero), for
+/// a light whose GGX share is known to be negligible.
+pub fn diffuse_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) -> LaneCounts {
+    lobes_of(batch, light, false, out)
+}
+
+#[inline(always)]
+fn lobes_of(
+    batch: &PixelBatch,
+    light: &BatchLight,
+    specular: bool,
+    out: &mut LaneLobes,
+) -> LaneCounts {
     match light.n {
-        3 => lobes_n::<3, 4>(batch, light, out),
-        4 => lobes_n::<4, 5>(batch, light, out),
-        5 => lobes_n::<5, 6>(batch, light, out),
-        6 => lobes_n::<6, 7>(batch, light, out),
-        7 => lobes_n::<7, 8>(batch, light, out),
-        8 => lobes_n::<8, 9>(batch, light, out),
+        3 => lobes_n::<3, 4>(batch, light, specular, out),
+        4 => lobes_n::<4, 5>(batch, light, specular, out),
+        5 => lobes_n::<5, 6>(batch, light, specular, out),
+        6 => lobes_n::<6, 7>(batch, light, specular, out),
+        7 => lobes_n::<7, 8>(batch, light, specular, out),
+        8 => lobes_n::<8, 9>(batch, light, specular, out),
         _ => {
             *out = LaneLobes::default();
             LaneCounts {
@@ -772,6 +788,7 @@ fn clip_lane<const N: usize, const K: usize>(
 fn lobes_n<const N: usize, const K: usize>(
     b: &PixelBatch,
     light: &BatchLight,
+    specular: bool,
     out: &mut LaneLobes,
 ) -> LaneCounts {
     *out = LaneLobes::default();
@@ -814,9 +831,11 @@ fn lobes_n<const N: usize, const K: usize>(
     let straddle = fast.and(min_z.lt(Wide::ZERO));
 
     if straddle.any() {
-        hard = hard.or(shade_clipped::<N, K>(b, light, &q, &e, straddle, fast, out));
+        hard = hard.or(shade_clipped::<N, K>(
+            b, light, specular, &q, &e, straddle, fast, out,
+        ));
     } else if fast.any() {
-        hard = hard.or(shade(b, light, &q, &e, None, fast, out));
+        hard = hard.or(shade(b, light, specular, &q, &e, None, fast, out));
     }
 
     let mut counts = LaneCounts {
@@ -826,7 +845,8 @@ fn lobes_n<const N: usize, const K: usize>(
     if hard.any() {
         for l in 0..LANES {
             if hard.lane(l) {
-                out.set_lane(l, unshadowed_lobes_prepared(&b.sp[l], &light.scalar));
+                let (d, s) = unshadowed_lobes_prepared(&b.sp[l], &light.scalar);
+                out.set_lane(l, (d, if specular { s } else { Vec3::ZERO }));
                 counts.scalar += 1;
             }
         }
@@ -839,9 +859,11 @@ fn lobes_n<const N: usize, const K: usize>(
 /// lanes' clipped. Kept out of line: the common batch, with no clip, runs
 /// `shade` inlined in `lobes_n` and is not slowed by this copy of it.
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 fn shade_clipped<const N: usize, const K: usize>(
     b: &PixelBatch,
     light: &BatchLight,
+    specular: bool,
     q: &[Wide3; N],
     e: &[Wide3; N],
     straddle: Mask,
@@ -853,6 +875,7 @@ fn shade_clipped<const N: usize, const K: usize>(
     failed.or(shade(
         b,
         light,
+        specular,
         &c.q,
         &c.e,
         Some((&c.real, c.slack)),
@@ -867,9 +890,11 @@ fn shade_clipped<const N: usize, const K: usize>(
 /// `Clipped`). Returns the lanes whose rounding bound exceeds `REL_TOL` (or
 /// whose value is not finite): the caller sends them to the scalar path.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn shade<const K: usize>(
     b: &PixelBatch,
     light: &BatchLight,
+    specular: bool,
     q: &[Wide3; K],
     e: &[Wide3; K],
     clipped: Option<(&[Mask; K], Wide)>,
@@ -887,7 +912,11 @@ fn shade<const K: usize>(
     let err_l = err(bnd_l) * Wide::splat(0.5 / std::f64::consts::PI);
     let mut spec = [Wide::ZERO; 3];
     let mut spec_err = [Wide::ZERO; 3];
-    let lobe = fast.and(b.lobe);
+    let lobe = if specular {
+        fast.and(b.lobe)
+    } else {
+        Mask::NONE
+    };
     if lobe.any() {
         let lobe_sum = |m, norm, want: Mask| {
             if want.any() {

@@ -10,7 +10,7 @@ use penumbra::render::{Frame, Mode, RenderSettings, World};
 use penumbra::scene::{BUILTIN_SCENE_TOML, Scene};
 use std::path::{Path, PathBuf};
 
-/// Small enough that the goldens stay under 1 MB in all (20 uncompressed
+/// Small enough that the goldens stay under 1.1 MB in all (25 uncompressed
 /// 32-bit RGB EXRs of 43 KB), large enough for shadows and the denoiser's
 /// filters (5x5 taps at up to 16 pixels apart) to have room.
 const WIDTH: u32 = 80;
@@ -48,7 +48,7 @@ struct Case {
 
 /// The shipped scenes, by file name under scenes/; "builtin" is the scene
 /// compiled into the binary (scenes/default.toml, checked below).
-const SCENES: [&str; 4] = ["builtin", "many-tris", "room", "shadow-plane"];
+const SCENES: [&str; 5] = ["builtin", "hall", "many-tris", "room", "shadow-plane"];
 
 fn cases() -> Vec<Case> {
     SCENES

@@ -145,8 +145,8 @@ fn reference_is_rendered_once_then_read_back_from_the_cache() {
     let path = Path::new("scenes/shadow-plane.toml");
     let device = Device::new().unwrap();
     let world = World::build(&device, Scene::load(path).unwrap()).unwrap();
-    let first = reference(&world, Some(path), 32, 18, 4, dir.path()).unwrap();
-    let again = reference(&world, Some(path), 32, 18, 4, dir.path()).unwrap();
+    let first = reference(&world, Some(path), 32, 18, 4, dir.path(), None).unwrap();
+    let again = reference(&world, Some(path), 32, 18, 4, dir.path(), None).unwrap();
     assert!(!first.reused && again.reused);
     assert_eq!(first.file, again.file);
     assert_eq!(first.color, again.color);

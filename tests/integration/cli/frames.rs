@@ -194,3 +194,10 @@ fn a_missing_output_directory_is_refused_before_rendering() {
     );
     assert!(!err.contains("panicked"), "stderr: {err}");
 }
+
+#[test]
+fn a_light_tolerance_outside_0_to_half_is_refused() {
+    assert_refused("tol-big", "--light-tolerance", "0.7");
+    assert_refused("tol-neg", "--light-tolerance", "-0.1");
+    assert_refused("tol-nan", "--light-tolerance", "NaN");
+}

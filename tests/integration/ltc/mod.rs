@@ -2,6 +2,7 @@
 
 mod accuracy;
 mod hard_cases;
+mod light_bound;
 mod properties;
 mod u_batch;
 mod unshadowed_mode;

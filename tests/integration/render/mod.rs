@@ -2,6 +2,7 @@
 
 mod determinism;
 mod gbuffer;
+mod light_culling;
 mod nan_sweep;
 mod no_specular_lobe;
 mod pixel_replay;
