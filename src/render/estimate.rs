@@ -58,6 +58,12 @@ pub const CULL_ROWS: usize = 8;
 /// lights culled whole take the rest.
 const GGX_SHARE: f32 = 0.8;
 
+/// Scenes with fewer lights evaluate every light everywhere: on room's two
+/// lights the culling's per-tile work cost more than it saved (`penumbra
+/// bench scenes/room.toml --only unshadowed --light-tolerance T`, 0.02 and 0
+/// alternated twice: U 224 and 230 against 205 and 214 ns per pixel).
+const CULL_MIN_LIGHTS: usize = 3;
+
 /// How the `U` stage's (pixel, light) pairs of surface pixels went.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct UCounts {
@@ -92,8 +98,8 @@ pub struct UCounts {
 /// per run of `LANES` pixels by each point's own bound when the light is
 /// far (`shading::far_light`, which then also gives its Lambert lobe). So
 /// every surface pixel's `U` (luminance) is within `tolerance` of what
-/// every light would give it. `tolerance` 0 evaluates every light at every
-/// pixel.
+/// every light would give it. `tolerance` 0, or fewer than
+/// `CULL_MIN_LIGHTS` lights, evaluates every light at every pixel.
 pub fn analytic_u_band(
     world: &World,
     gbuf: &[GSample],
@@ -174,6 +180,9 @@ struct Tile {
     spent: Vec<f32>,
     /// Per point, the bound on one far light's GGX lobe.
     ggx: Vec<f32>,
+    /// Per run of `LANES` pixels: its points, and whether it leaves the
+    /// light's GGX lobe out.
+    leave_out: Vec<(usize, bool)>,
 }
 
 impl Tile {
@@ -215,9 +224,10 @@ impl Tile {
         let lights = world.lights.batch();
         let extents = world.lights.extents();
         let n = lights.len();
-        let group = (tolerance > 0.0)
+        let group = (tolerance > 0.0 && n >= CULL_MIN_LIGHTS)
             .then(|| PointGroup::new(&self.points))
             .flatten();
+        let tolerance = if group.is_some() { tolerance } else { 0.0 };
         self.order.clear();
         match &group {
             Some(g) => {
@@ -281,42 +291,50 @@ impl Tile {
                         wide_ready = true;
                     }
                     let rounding = bound_of_rounding(&self.points, light, view);
-                    form_factors(&self.wide, &light.vertices, &mut self.form_factors);
                     let want_ggx = has_ggx && !tile_drop;
                     if want_ggx {
                         ggx_bounds(&self.wide, &extents[i], &mut self.ggx);
                     }
                     let radiance = luminance(light.radiance);
+                    // Per point, the GGX bound of this light alone may leave
+                    // its lobe out where the tile's could not.
+                    let cost = |q: usize| {
+                        rounding
+                            + if want_ggx {
+                                radiance * self.ggx[q]
+                            } else if tile_drop {
+                                bound.specular
+                            } else {
+                                0.0
+                            }
+                    };
+                    // Which runs leave the GGX lobe out, decided before any
+                    // lobe is computed: the wide Lambert values only where
+                    // some run takes them.
+                    self.leave_out.clear();
+                    let mut m = 0;
+                    for (_, len, batch) in &self.batches {
+                        let lanes = (0..*len).filter(|&l| batch.point(l).is_some()).count();
+                        let leave = !want_ggx
+                            || (m..m + lanes).all(|q| {
+                                self.spent[q] + cost(q) <= GGX_SHARE * tolerance * self.kept[q]
+                            });
+                        self.leave_out.push((lanes, leave));
+                        m += lanes;
+                    }
+                    if self.leave_out.iter().any(|&(_, leave)| leave) {
+                        form_factors(&self.wide, &light.vertices, &mut self.form_factors);
+                    }
                     let mut m = 0;
                     let mut lobes = LaneLobes::default();
-                    for (k0, len, batch) in &self.batches {
-                        let lanes = (0..*len).filter(|&l| batch.point(l).is_some()).count();
+                    for ((k0, len, batch), &(lanes, leave)) in
+                        self.batches.iter().zip(&self.leave_out)
+                    {
                         let points = m..m + lanes;
-                        let lambert = |q: usize| {
-                            self.points[q].diffuse * light.radiance * self.form_factors[q]
-                        };
-                        // Per point, the GGX bound of this light alone
-                        // may leave its lobe out where the tile's could not.
-                        let cost = |q: usize| {
-                            rounding
-                                + if want_ggx {
-                                    radiance * self.ggx[q]
-                                } else if tile_drop {
-                                    bound.specular
-                                } else {
-                                    0.0
-                                }
-                        };
-                        let leave_out = !want_ggx
-                            || points.clone().all(|q| {
-                                self.spent[q] + cost(q)
-                                    <= GGX_SHARE
-                                        * tolerance
-                                        * (self.kept[q] + luminance(lambert(q)))
-                            });
-                        if leave_out {
-                            for q in points.clone() {
-                                let d = lambert(q);
+                        if leave {
+                            for q in points {
+                                let d =
+                                    self.points[q].diffuse * light.radiance * self.form_factors[q];
                                 out.add(self.pixels[q], i, d, Vec3::ZERO);
                                 self.kept[q] += luminance(d);
                                 self.spent[q] += cost(q);
@@ -328,7 +346,7 @@ impl Tile {
                             counts.lanes.fast += c.fast;
                             counts.lanes.scalar += c.scalar;
                             let active = (0..*len).filter(|&l| batch.point(l).is_some());
-                            for (q, l) in points.clone().zip(active) {
+                            for (q, l) in points.zip(active) {
                                 let (d, s) = lobes.lane(l);
                                 out.add(k0 + l, i, d, s);
                                 self.kept[q] += luminance(d + s);

@@ -57,11 +57,10 @@ impl WidePoints {
     }
 
     /// A point: position, unit shading normal, unit view direction, GGX
-    /// alpha and the largest channel of F0.
+    /// alpha and the largest channel of F0. Points are pushed after `clear`
+    /// and before `finish`.
     pub fn push(&mut self, p: Vec3, n: Vec3, wo: Vec3, alpha: f32, f0: f32) {
-        // Padding from an earlier `finish` is overwritten.
-        let len = self.len;
-        self.columns().for_each(|c| c.truncate(len));
+        debug_assert_eq!(self.alpha.len(), self.len, "push after finish");
         for k in 0..3 {
             self.p[k].push(p[k]);
             self.n[k].push(n[k]);

@@ -90,3 +90,18 @@ fn many_lights_still_trace_at_most_one_shadow_ray_per_surface_pixel() {
     );
     assert!(frame.color.iter().all(|c| c.is_finite()));
 }
+
+#[test]
+fn a_scene_of_two_lights_evaluates_both_everywhere() {
+    let scene = load("room.toml");
+    let camera = scene.camera;
+    let device = Device::new().expect("Embree starts");
+    let world = World::build(&device, scene).expect("scene builds");
+    let mut frame = Frame::new(WIDTH, HEIGHT);
+    let settings = RenderSettings {
+        mode: Mode::Unshadowed,
+        ..RenderSettings::default()
+    };
+    let times = frame.render(&world, &camera, &settings);
+    assert_eq!(times.u_pairs[1..], [0, 0]);
+}
