@@ -183,6 +183,8 @@ struct Tile {
     /// Per run of `LANES` pixels: its points, and whether it leaves the
     /// light's GGX lobe out.
     leave_out: Vec<(usize, bool)>,
+    /// Whether `wide` holds this tile's points.
+    wide_ready: bool,
 }
 
 impl Tile {
@@ -219,6 +221,24 @@ impl Tile {
         }
     }
 
+    /// The tile's points in `wide`, once per tile.
+    fn prepare_wide(&mut self) {
+        if self.wide_ready {
+            return;
+        }
+        self.wide.clear();
+        for sp in &self.points {
+            let alpha = alpha_from_roughness(sp.roughness);
+            self.wide
+                .push(sp.p, sp.n, sp.wo, alpha, sp.specular.max_element());
+        }
+        self.wide.finish();
+        let count = self.points.len();
+        self.form_factors.resize(count, 0.0);
+        self.ggx.resize(count, 0.0);
+        self.wide_ready = true;
+    }
+
     /// Every light's `U` at the tile's points, culled to `tolerance`.
     fn shade(&mut self, world: &World, tolerance: f32, out: &mut TileOut, counts: &mut UCounts) {
         let lights = world.lights.batch();
@@ -251,7 +271,7 @@ impl Tile {
         self.spent.clear();
         self.spent.resize(count, 0.0);
         let has_ggx = self.points.iter().any(|sp| sp.specular.max_element() > 0.0);
-        let mut wide_ready = false;
+        self.wide_ready = false;
         // The smallest `U` so far, and the most any point's left-out
         // lobes may cost.
         let (mut smallest, mut most_spent) = (0.0f32, 0.0f32);
@@ -274,22 +294,7 @@ impl Tile {
             let far = group.as_ref().and_then(|g| g.far_view(&extents[i]));
             match far {
                 Some(view) => {
-                    if !wide_ready {
-                        self.wide.clear();
-                        for sp in &self.points {
-                            self.wide.push(
-                                sp.p,
-                                sp.n,
-                                sp.wo,
-                                alpha_from_roughness(sp.roughness),
-                                sp.specular.max_element(),
-                            );
-                        }
-                        self.wide.finish();
-                        self.form_factors.resize(count, 0.0);
-                        self.ggx.resize(count, 0.0);
-                        wide_ready = true;
-                    }
+                    self.prepare_wide();
                     let rounding = bound_of_rounding(&self.points, light, view);
                     let want_ggx = has_ggx && !tile_drop;
                     if want_ggx {
@@ -357,30 +362,53 @@ impl Tile {
                     }
                 }
                 None => {
+                    // Not far: the f64 batch, clipped. Where the tile's bound
+                    // cannot leave the GGX lobe out, each point's own bound
+                    // (it holds for any light) may, run by run.
+                    let per_point = has_ggx && !tile_drop && group.is_some();
+                    if per_point {
+                        self.prepare_wide();
+                        ggx_bounds(&self.wide, &extents[i], &mut self.ggx);
+                    }
+                    let radiance = luminance(light.radiance);
                     let mut m = 0;
                     let mut lobes = LaneLobes::default();
                     for (k0, len, batch) in &self.batches {
-                        let c = if tile_drop {
+                        let lanes = (0..*len).filter(|&l| batch.point(l).is_some()).count();
+                        let cost = |q: usize| {
+                            if tile_drop {
+                                bound.specular
+                            } else {
+                                radiance * self.ggx[q]
+                            }
+                        };
+                        let leave = tile_drop
+                            || (per_point
+                                && (m..m + lanes).all(|q| {
+                                    self.spent[q] + cost(q) <= GGX_SHARE * tolerance * self.kept[q]
+                                }));
+                        let c = if leave {
                             diffuse_batch(batch, &lights[i], &mut lobes)
                         } else {
                             lobes_batch(batch, &lights[i], &mut lobes)
                         };
                         counts.lanes.fast += c.fast;
                         counts.lanes.scalar += c.scalar;
-                        for l in (0..*len).filter(|&l| batch.point(l).is_some()) {
+                        let active = (0..*len).filter(|&l| batch.point(l).is_some());
+                        for (q, l) in (m..m + lanes).zip(active) {
                             let (d, s) = lobes.lane(l);
                             out.add(k0 + l, i, d, s);
-                            self.kept[m] += luminance(d + s);
-                            if tile_drop {
-                                self.spent[m] += bound.specular;
+                            self.kept[q] += luminance(d + s);
+                            if leave {
+                                self.spent[q] += cost(q);
                             }
-                            m += 1;
                         }
-                    }
-                    if tile_drop {
-                        counts.diffuse_only += count as u64;
-                    } else {
-                        counts.full += count as u64;
+                        if leave {
+                            counts.diffuse_only += lanes as u64;
+                        } else {
+                            counts.full += lanes as u64;
+                        }
+                        m += lanes;
                     }
                 }
             }

@@ -7,14 +7,15 @@
 //! it to the rounding bound `form_factor_rounding` (measured in the tests
 //! against the `f64` path), at a fraction of the `f64` batch's cost.
 //!
-//! The GGX bound is `light_bound`'s, taken per point instead of per tile:
+//! The GGX bound (which holds for any light, far or not) is
+//! `light_bound`'s, taken per point instead of per tile:
 //! from one point the light's directions lie within `rho = r / (d - r)` of
 //! the direction to its centre, so the cones are those of the light alone
 //! and the bound is tight enough to leave a light's GGX lobe out wherever
 //! the point's lobe does not face it.
 
 use super::lanes::Lanes;
-use super::light_bound::{ALBEDO_MARGIN, LTC_FIT_MARGIN, LightExtent};
+use super::light_bound::{LTC_FIT_MARGIN, LightExtent};
 use super::polygon::THETA_SIN_POLY;
 use glam::Vec3;
 
@@ -198,9 +199,11 @@ fn angle_of_cos(cos: W) -> (W, W) {
 
 /// An upper bound on `light`'s GGX `U` per unit radiance (luminance, F0
 /// at its largest channel) at every point of `points` into
-/// `out[..points.len()]`, for the far case of the module comment. Zero at
+/// `out[..points.len()]`. It holds for any light, near or far, clipped or
+/// not (what a horizon clips only lowers the integral). Zero at
 /// points without a GGX lobe, infinite where the view lies under the
-/// point's shading horizon (see `light_bound`).
+/// point's shading horizon (see `light_bound`) or the point lies within the
+/// light's bounding sphere.
 pub fn ggx_bounds(points: &WidePoints, light: &LightExtent, out: &mut [f32]) {
     let c = light.centre;
     let (normal, r) = (light.normal, light.radius);
@@ -263,10 +266,14 @@ pub fn ggx_bounds(points: &WidePoints, light: &LightExtent, out: &mut [f32]) {
         let x = W::ONE - cos_d;
         let x2 = x * x;
         let f_max = f0 + (W::ONE - f0) * (x2 * x2 * x);
-        let lobe = (W::splat(LTC_FIT_MARGIN) * d_max * g1 * omega).min(W::splat(ALBEDO_MARGIN));
+        let lobe = (W::splat(LTC_FIT_MARGIN) * d_max * g1 * omega).min(W::splat(LTC_FIT_MARGIN));
         // A view under the shading horizon: the LTC's grazing entry, no bound.
+        // Inside the light's sphere its directions may span more than the
+        // cone above: no bound there either.
+        let outside = dist.gt(W::splat(r * (1.0 + 1e-4)));
         let bound = co_signed
             .gt(W::ZERO)
+            .and(outside)
             .select(f_max * lobe, W::splat(f32::INFINITY));
         let bound = f0.gt(W::ZERO).select(bound, W::ZERO);
         store(bound, g, points.len, out);
