@@ -1,8 +1,9 @@
 //! How many lights a many-light scene really needs per pixel, and how close
 //! the culling bounds come to what they bound: with every light's `U` known
 //! at every pixel (tolerance 0), the lights that hold 99 % and 95 % of each
-//! pixel's `U`, the lights whose GGX lobe a budget of 0.5 % of `U` cannot
-//! leave out, and the bound over the computed value per (4-pixel run,
+//! pixel's `U`, the lights whose GGX lobe the shipped culling's GGX budget
+//! (0.8 of `LIGHT_TOLERANCE` of `U`) cannot leave out, and the bound over
+//! the computed value per (4-pixel run,
 //! light). docs/frame-design.md (*Many lights*) quotes its figures.
 //!
 //! `cargo run --release --example light_oracle -- scenes/hall.toml 640 360`
@@ -10,11 +11,14 @@
 use penumbra::color::luminance;
 use penumbra::embree::Device;
 use penumbra::render::estimate::surface_point;
-use penumbra::render::{Frame, Mode, PixelKind, RenderSettings, World};
+use penumbra::render::{Frame, LIGHT_TOLERANCE, Mode, PixelKind, RenderSettings, World};
 use penumbra::scene::Scene;
 use penumbra::shading::SurfacePoint;
 use penumbra::shading::light_bound::PointGroup;
 use penumbra::shading::u_batch::{LANES, LaneLobes, PixelBatch, lobes_batch};
+
+/// The share of `U` the shipped culling lets left-out GGX lobes take.
+const GGX_BUDGET: f32 = 0.8 * LIGHT_TOLERANCE;
 
 /// The lights, largest first, whose values sum to `share` of the total.
 fn needed(values: &mut [f32], share: f32) -> usize {
@@ -110,14 +114,14 @@ fn main() {
             u_sum += f64::from(u);
             n99 += needed(&mut total.clone(), 0.99);
             n95 += needed(&mut total, 0.95);
-            // Lobes left out smallest first while they stay under 0.5 % of U.
+            // Lobes left out smallest first while they stay within the budget.
             spec.sort_by(|a, b| a.total_cmp(b));
             let mut left = 0.0;
             let droppable = spec
                 .iter()
                 .take_while(|&&x| {
                     left += x;
-                    left <= 0.005 * u
+                    left <= GGX_BUDGET * u
                 })
                 .count();
             spec_needed += n - droppable;
@@ -132,7 +136,8 @@ fn main() {
         per(n95)
     );
     println!(
-        "lights per pixel whose GGX lobe a 0.5 % budget cannot leave out: {:.2}",
+        "lights per pixel whose GGX lobe a budget of {:.1} % of U cannot leave out: {:.2}",
+        GGX_BUDGET * 100.0,
         per(spec_needed)
     );
     println!("GGX share of U: {:.3}", spec_sum / u_sum.max(1e-30));
