@@ -16,7 +16,7 @@
 
 use super::lanes::Lanes;
 use super::light_bound::{LTC_FIT_MARGIN, LightExtent};
-use super::polygon::THETA_SIN_POLY;
+use super::polygon::{THETA_SIN_POLY, theta_over_sin_lanes};
 use glam::Vec3;
 
 /// Points per vector.
@@ -114,15 +114,7 @@ pub fn form_factor_rounding(edges: usize, near: f32, scale: f32) -> f32 {
 /// path's polynomial, evaluated in `f32`.
 #[inline(always)]
 fn theta_over_sin(x: W) -> W {
-    let c = THETA_SIN_POLY.map(|k| W::splat(k as f32));
-    let t = x.mul_add(W::splat(2.0), W::splat(-1.0));
-    let t2 = t * t;
-    let t4 = t2 * t2;
-    let t8 = t4 * t4;
-    let q0 = c[3].mul_add(t, c[2]).mul_add(t2, c[1].mul_add(t, c[0]));
-    let q1 = c[7].mul_add(t, c[6]).mul_add(t2, c[5].mul_add(t, c[4]));
-    let q2 = c[10].mul_add(t2, c[9].mul_add(t, c[8]));
-    q2.mul_add(t8, q1.mul_add(t4, q0))
+    theta_over_sin_lanes(&THETA_SIN_POLY.map(W::splat), x)
 }
 
 /// The form factor `1/pi ∫ cos dω` of the polygon `vertices` (3 to 8, any

@@ -12,6 +12,7 @@
 //! No heap allocation: polygons live in fixed arrays (8 input vertices, plus
 //! one per clipping plane; we clip at most twice).
 
+use super::lanes::{Elem, Lanes};
 use glam::{DMat3, DVec3};
 use std::f64::consts::PI;
 
@@ -152,6 +153,24 @@ pub(crate) fn theta_over_sin_pos(x: f64) -> f64 {
     let q1 = (c[4] + c[5] * t) + (c[6] + c[7] * t) * t2;
     let q2 = (c[8] + c[9] * t) + c[10] * t2;
     (q0 + q1 * t4) + q2 * t8
+}
+
+/// `theta_over_sin_pos` in every lane, from `THETA_SIN_POLY` as vectors
+/// (`c`): the same Estrin scheme, its multiply-adds fused (14 instructions
+/// instead of 23; the values differ by rounding).
+#[inline(always)]
+pub(crate) fn theta_over_sin_lanes<T: Elem, const L: usize>(
+    c: &[Lanes<T, L>; 11],
+    x: Lanes<T, L>,
+) -> Lanes<T, L> {
+    let t = x.mul_add(Lanes::splat(2.0), Lanes::splat(-1.0));
+    let t2 = t * t;
+    let t4 = t2 * t2;
+    let t8 = t4 * t4;
+    let q0 = c[3].mul_add(t, c[2]).mul_add(t2, c[1].mul_add(t, c[0]));
+    let q1 = c[7].mul_add(t, c[6]).mul_add(t2, c[5].mul_add(t, c[4]));
+    let q2 = c[10].mul_add(t2, c[9].mul_add(t, c[8]));
+    q2.mul_add(t8, q1.mul_add(t4, q0))
 }
 
 /// theta / sin(theta) for x = cos(theta) in [-1, 1], finite everywhere.

@@ -412,17 +412,7 @@ static THETA_SIN_WIDE: [Wide; 11] = {
 /// polynomial, per lane.
 #[inline(always)]
 fn theta_over_sin_pos(x: Wide) -> Wide {
-    // The same Estrin scheme as the scalar function, its multiply-adds
-    // fused (14 instructions instead of 23; the values differ by rounding).
-    let c = &THETA_SIN_WIDE;
-    let t = x.mul_add(Wide::splat(2.0), Wide::splat(-1.0));
-    let t2 = t * t;
-    let t4 = t2 * t2;
-    let t8 = t4 * t4;
-    let q0 = c[3].mul_add(t, c[2]).mul_add(t2, c[1].mul_add(t, c[0]));
-    let q1 = c[7].mul_add(t, c[6]).mul_add(t2, c[5].mul_add(t, c[4]));
-    let q2 = c[10].mul_add(t2, c[9].mul_add(t, c[8]));
-    q2.mul_add(t8, q1.mul_add(t4, q0))
+    super::polygon::theta_over_sin_lanes(&THETA_SIN_WIDE, x)
 }
 
 /// `theta / sin(theta)` for x in [-1, 1] (already clamped): below 0,
