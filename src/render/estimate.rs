@@ -159,13 +159,31 @@ impl TileOut<'_> {
     }
 }
 
+/// Up to `LANES` pixels of a row, as the batched path reads them.
+struct Run {
+    /// Its first pixel in the band, and how many pixels it spans.
+    k0: usize,
+    len: usize,
+    /// Its surface points: `points[first..first + count]` of the tile.
+    first: usize,
+    count: usize,
+    batch: PixelBatch,
+}
+
+impl Run {
+    /// The tile's point index and the lane of each surface point.
+    fn lanes(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (self.first..).zip((0..self.len).filter(|&l| self.batch.point(l).is_some()))
+    }
+}
+
 /// One tile of the `U` stage: its surface points as the batched path, the
 /// bounds and the wide Lambert kernel read them, and the working state of
 /// its light loop; reused from tile to tile.
 #[derive(Default)]
 struct Tile {
-    /// (first pixel, pixels, batch) per run of `LANES` pixels of a row.
-    batches: Vec<(usize, usize, PixelBatch)>,
+    /// The runs of up to `LANES` pixels of a row that hold surface points.
+    runs: Vec<Run>,
     points: Vec<SurfacePoint>,
     /// The pixel of each point.
     pixels: Vec<usize>,
@@ -180,9 +198,8 @@ struct Tile {
     spent: Vec<f32>,
     /// Per point, the bound on one far light's GGX lobe.
     ggx: Vec<f32>,
-    /// Per run of `LANES` pixels: its points, and whether it leaves the
-    /// light's GGX lobe out.
-    leave_out: Vec<(usize, bool)>,
+    /// Per run: whether it leaves the light's GGX lobe out.
+    leave_out: Vec<bool>,
     /// Whether `wide` holds this tile's points.
     wide_ready: bool,
 }
@@ -190,7 +207,7 @@ struct Tile {
 impl Tile {
     /// The surface pixels of rows `rows` and columns `x0..x0 + CULL_COLUMNS`.
     fn gather(&mut self, gbuf: &[GSample], row_len: usize, rows: (usize, usize), x0: usize) {
-        self.batches.clear();
+        self.runs.clear();
         self.points.clear();
         self.pixels.clear();
         for r in rows.0..rows.1 {
@@ -210,13 +227,20 @@ impl Tile {
                 if lane.iter().all(Option::is_none) {
                     continue;
                 }
+                let first = self.points.len();
                 for (l, sp) in lane.iter().enumerate() {
                     if let Some(sp) = sp {
                         self.points.push(*sp);
                         self.pixels.push(k0 + l);
                     }
                 }
-                self.batches.push((k0, len, PixelBatch::new(&lane)));
+                self.runs.push(Run {
+                    k0,
+                    len,
+                    first,
+                    count: self.points.len() - first,
+                    batch: PixelBatch::new(&lane),
+                });
             }
         }
     }
@@ -292,124 +316,81 @@ impl Tile {
             let tile_drop = tolerance > 0.0 && most_spent + bound.specular <= GGX_SHARE * budget;
             let light = &world.lights.declared()[i];
             let far = group.as_ref().and_then(|g| g.far_view(&extents[i]));
-            match far {
-                Some(view) => {
-                    self.prepare_wide();
-                    let rounding = bound_of_rounding(&self.points, light, view);
-                    let want_ggx = has_ggx && !tile_drop;
-                    if want_ggx {
-                        ggx_bounds(&self.wide, &extents[i], &mut self.ggx);
+            // Where the tile's bound cannot leave the GGX lobe out, each
+            // point's own bound (it holds for any light) may, run by run.
+            let per_point = has_ggx && !tile_drop && group.is_some();
+            if far.is_some() || per_point {
+                self.prepare_wide();
+            }
+            if per_point {
+                ggx_bounds(&self.wide, &extents[i], &mut self.ggx);
+            }
+            let rounding = match (&group, far) {
+                (Some(g), Some(view)) => bound_of_rounding(g.albedo(), light, view),
+                _ => 0.0,
+            };
+            let radiance = luminance(light.radiance);
+            let cost = |q: usize| {
+                rounding
+                    + if tile_drop {
+                        bound.specular
+                    } else if per_point {
+                        radiance * self.ggx[q]
+                    } else {
+                        0.0
                     }
-                    let radiance = luminance(light.radiance);
-                    // Per point, the GGX bound of this light alone may leave
-                    // its lobe out where the tile's could not.
-                    let cost = |q: usize| {
-                        rounding
-                            + if want_ggx {
-                                radiance * self.ggx[q]
-                            } else if tile_drop {
-                                bound.specular
-                            } else {
-                                0.0
-                            }
-                    };
-                    // Which runs leave the GGX lobe out, decided before any
-                    // lobe is computed: the wide Lambert values only where
-                    // some run takes them.
-                    self.leave_out.clear();
-                    let mut m = 0;
-                    for (_, len, batch) in &self.batches {
-                        let lanes = (0..*len).filter(|&l| batch.point(l).is_some()).count();
-                        let leave = !want_ggx
-                            || (m..m + lanes).all(|q| {
-                                self.spent[q] + cost(q) <= GGX_SHARE * tolerance * self.kept[q]
-                            });
-                        self.leave_out.push((lanes, leave));
-                        m += lanes;
+            };
+            // Which runs leave the GGX lobe out, decided before any lobe is
+            // computed: a far light's wide Lambert values only where some run
+            // takes them; the other runs take the f64 batch (clipped).
+            self.leave_out.clear();
+            for run in &self.runs {
+                let points = run.first..run.first + run.count;
+                let leave = tile_drop
+                    || (far.is_some() && !has_ggx)
+                    || (per_point
+                        && points.clone().all(|q| {
+                            self.spent[q] + cost(q) <= GGX_SHARE * tolerance * self.kept[q]
+                        }));
+                self.leave_out.push(leave);
+            }
+            let wide = far.is_some() && self.leave_out.contains(&true);
+            if wide {
+                form_factors(&self.wide, &light.vertices, &mut self.form_factors);
+            }
+            let mut lobes = LaneLobes::default();
+            for (run, &leave) in self.runs.iter().zip(&self.leave_out) {
+                let points = run.count as u64;
+                if leave && wide {
+                    for q in run.first..run.first + run.count {
+                        let d = self.points[q].diffuse * light.radiance * self.form_factors[q];
+                        out.add(self.pixels[q], i, d, Vec3::ZERO);
+                        self.kept[q] += luminance(d);
+                        self.spent[q] += cost(q);
                     }
-                    if self.leave_out.iter().any(|&(_, leave)| leave) {
-                        form_factors(&self.wide, &light.vertices, &mut self.form_factors);
-                    }
-                    let mut m = 0;
-                    let mut lobes = LaneLobes::default();
-                    for ((k0, len, batch), &(lanes, leave)) in
-                        self.batches.iter().zip(&self.leave_out)
-                    {
-                        let points = m..m + lanes;
-                        if leave {
-                            for q in points {
-                                let d =
-                                    self.points[q].diffuse * light.radiance * self.form_factors[q];
-                                out.add(self.pixels[q], i, d, Vec3::ZERO);
-                                self.kept[q] += luminance(d);
-                                self.spent[q] += cost(q);
-                            }
-                            counts.diffuse_only += lanes as u64;
-                            counts.lambert_wide += lanes as u64;
-                        } else {
-                            let c = lobes_batch(batch, &lights[i], &mut lobes);
-                            counts.lanes.fast += c.fast;
-                            counts.lanes.scalar += c.scalar;
-                            let active = (0..*len).filter(|&l| batch.point(l).is_some());
-                            for (q, l) in points.zip(active) {
-                                let (d, s) = lobes.lane(l);
-                                out.add(k0 + l, i, d, s);
-                                self.kept[q] += luminance(d + s);
-                            }
-                            counts.full += lanes as u64;
-                        }
-                        m += lanes;
+                    counts.diffuse_only += points;
+                    counts.lambert_wide += points;
+                    continue;
+                }
+                let c = if leave {
+                    diffuse_batch(&run.batch, &lights[i], &mut lobes)
+                } else {
+                    lobes_batch(&run.batch, &lights[i], &mut lobes)
+                };
+                counts.lanes.fast += c.fast;
+                counts.lanes.scalar += c.scalar;
+                for (q, l) in run.lanes() {
+                    let (d, s) = lobes.lane(l);
+                    out.add(run.k0 + l, i, d, s);
+                    self.kept[q] += luminance(d + s);
+                    if leave {
+                        self.spent[q] += cost(q);
                     }
                 }
-                None => {
-                    // Not far: the f64 batch, clipped. Where the tile's bound
-                    // cannot leave the GGX lobe out, each point's own bound
-                    // (it holds for any light) may, run by run.
-                    let per_point = has_ggx && !tile_drop && group.is_some();
-                    if per_point {
-                        self.prepare_wide();
-                        ggx_bounds(&self.wide, &extents[i], &mut self.ggx);
-                    }
-                    let radiance = luminance(light.radiance);
-                    let mut m = 0;
-                    let mut lobes = LaneLobes::default();
-                    for (k0, len, batch) in &self.batches {
-                        let lanes = (0..*len).filter(|&l| batch.point(l).is_some()).count();
-                        let cost = |q: usize| {
-                            if tile_drop {
-                                bound.specular
-                            } else {
-                                radiance * self.ggx[q]
-                            }
-                        };
-                        let leave = tile_drop
-                            || (per_point
-                                && (m..m + lanes).all(|q| {
-                                    self.spent[q] + cost(q) <= GGX_SHARE * tolerance * self.kept[q]
-                                }));
-                        let c = if leave {
-                            diffuse_batch(batch, &lights[i], &mut lobes)
-                        } else {
-                            lobes_batch(batch, &lights[i], &mut lobes)
-                        };
-                        counts.lanes.fast += c.fast;
-                        counts.lanes.scalar += c.scalar;
-                        let active = (0..*len).filter(|&l| batch.point(l).is_some());
-                        for (q, l) in (m..m + lanes).zip(active) {
-                            let (d, s) = lobes.lane(l);
-                            out.add(k0 + l, i, d, s);
-                            self.kept[q] += luminance(d + s);
-                            if leave {
-                                self.spent[q] += cost(q);
-                            }
-                        }
-                        if leave {
-                            counts.diffuse_only += lanes as u64;
-                        } else {
-                            counts.full += lanes as u64;
-                        }
-                        m += lanes;
-                    }
+                if leave {
+                    counts.diffuse_only += points;
+                } else {
+                    counts.full += points;
                 }
             }
             smallest = self.kept.iter().fold(f32::INFINITY, |a, &b| a.min(b));
@@ -419,11 +400,9 @@ impl Tile {
     }
 }
 
-/// What the wide kernel's rounding may cost a tile (luminance).
-fn bound_of_rounding(points: &[SurfacePoint], light: &Light, view: FarView) -> f32 {
-    let albedo = points
-        .iter()
-        .fold(0.0f32, |a, sp| a.max(sp.diffuse.max_element()));
+/// What the wide kernel's rounding may cost a tile whose largest albedo
+/// channel is `albedo` (luminance).
+fn bound_of_rounding(albedo: f32, light: &Light, view: FarView) -> f32 {
     albedo
         * luminance(light.radiance)
         * form_factor_rounding(light.vertices.len(), view.near, view.scale)

@@ -228,6 +228,11 @@ impl PointGroup {
         Some(group)
     }
 
+    /// The largest channel of the group's diffuse albedo.
+    pub fn albedo(&self) -> f32 {
+        self.diffuse
+    }
+
     /// Upper bounds on `light`'s Lambert and GGX `U` at every point of the group.
     pub fn bound(&self, light: &LightExtent) -> LobeBound {
         let to = light.centre - self.centre;
