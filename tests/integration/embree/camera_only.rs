@@ -37,6 +37,14 @@ fn strategies(device: &Device) -> Vec<ShadowStrategy> {
 
 const ORG: Vec3 = Vec3::new(0.1, 0.2, 3.0);
 const DOWN: Vec3 = Vec3::new(0.0, 0.0, -1.0);
+/// The floor's distance along `DOWN`, and the rounding Embree's kernels
+/// may leave on it (they differ by instruction set: 1 ulp seen with AVX2).
+const FLOOR_T: f32 = 2.0;
+const T_ULPS: f32 = 4.0 * f32::EPSILON;
+
+fn hits_floor(geom_id: u32, t: f32) -> bool {
+    geom_id == 0 && (t - FLOOR_T).abs() <= T_ULPS * FLOOR_T
+}
 
 #[test]
 fn camera_rays_hit_camera_only_geometry() {
@@ -44,17 +52,19 @@ fn camera_rays_hit_camera_only_geometry() {
     for strategy in strategies(&device) {
         let scene = light_over_floor(&device, strategy);
         let hit = scene.intersect1(ORG, DOWN, 0.0, f32::INFINITY).unwrap();
-        assert_eq!((hit.geom_id, hit.t), (0, 2.0), "{strategy:?}");
+        assert!(hits_floor(hit.geom_id, hit.t), "{strategy:?}: {hit:?}");
 
         let mut rays = Rays16::new();
         rays.set(5, ORG, DOWN, 0.0, f32::INFINITY);
         let hits = scene.intersect16(&rays, true);
-        assert_eq!((hits.geom_id[5], hits.t[5]), (0, 2.0), "{strategy:?}");
+        let (g, t) = (hits.geom_id[5], hits.t[5]);
+        assert!(hits_floor(g, t), "{strategy:?}: {g} at {t}");
 
         let mut rays8 = Rays8::new();
         rays8.set(2, ORG, DOWN, 0.0, f32::INFINITY);
         let hits8 = scene.intersect8(&rays8, false);
-        assert_eq!((hits8.geom_id[2], hits8.t[2]), (0, 2.0), "{strategy:?}");
+        let (g, t) = (hits8.geom_id[2], hits8.t[2]);
+        assert!(hits_floor(g, t), "{strategy:?}: {g} at {t}");
     }
 }
 
