@@ -11,16 +11,18 @@
 //! The ratio is exact for a small light and is trusted only as far as the
 //! cubature is: the same cubature applied to the LTC itself, `Q[ltc]`, is
 //! checked against the analytic LTC integral, and the correction fades out
-//! (to the plain LTC) as they disagree by up to `TRUST` — a light that
+//! (to the plain LTC) as they disagree by `TRUST_FULL` to `TRUST_NONE` — a light that
 //! resolves the lobe's structure, where four nodes cannot follow `f` either.
 //! It also fades with the light's share `s` of the lobe (factor `1 - s`):
 //! over the whole lobe the LTC integral is already the fitted magnitude.
 //!
-//! Nodes: a fan of spherical triangles from the polygon's centroid
-//! direction, one node per triangle at its centroid, weighted by its solid
-//! angle (3 nodes for a triangle light, 4 for a quad). Deterministic and
-//! noise-free; the factor is finite, in `[0, MAX_RATIO]`, and 1 for any
-//! degenerate input.
+//! Nodes: a fan of spherical triangles over the light's image in lobe A's
+//! LTC space, from its centroid direction, one node per triangle at its
+//! centroid, weighted by its solid angle taken back to the shading frame
+//! (3 nodes for a triangle light, 4 for a quad); split into 4 or 16 pieces
+//! per triangle where the nodes miss the analytic LTC integral
+//! (`lobe_factors_lanes`). Deterministic and noise-free; the factor is
+//! finite, in `[0, MAX_RATIO]`, and 1 for any degenerate input.
 //!
 //! Cost: this runs for every pixel and light, so it is written for speed
 //! rather than reuse: `f32` nodes, two to a register (the factor needs
@@ -29,7 +31,7 @@
 //! its divisions merged (a unit test checks it against `brdf::spec_local`),
 //! and a rational `atan` for the solid angles (max error 0.005 rad).
 
-use super::lanes::{Vec3Lanes, Wide, Wide3, Wide8, add3, cross, dot, scale3};
+use super::lanes::{Mask, Vec3Lanes, Wide, Wide3, Wide8, add3, cross, dot, scale3};
 use super::ltc::{CellLanes, LtcCell};
 use super::polygon::MAX_VERTICES;
 use glam::{DVec3, Vec3, Vec4};
@@ -37,13 +39,14 @@ use std::f32::consts::{FRAC_PI_2, PI};
 
 /// Largest correction factor (the ratio only runs away where the model has
 /// almost no mass).
-const MAX_RATIO: f32 = 4.0;
-/// The cubature's relative error on the LTC integral at which the
-/// correction is dropped entirely (linear fade from 0). Chosen on
-/// tests/ltc_accuracy.rs's grid among 0.05 / 0.1 / 0.2 / 0.4 (larger values
-/// lower the median but let badly resolved lights through: max error 0.9+
-/// at 0.2), and checked on the independent set of tests/ltc_validation.rs.
-const TRUST: f32 = 0.1;
+const MAX_RATIO: f32 = 32.0;
+/// The cubature's relative miss on the analytic LTC integral up to which
+/// the correction is applied in full, and at which it is dropped entirely
+/// (linear fade between). With nodes in LTC space the ratio stays right
+/// where the nodes still miss the model by 10-30 % (slivers seen at grazing
+/// views, `ltc::image_accuracy`); a fade from 0 to 10 % dropped it there.
+const TRUST_FULL: f32 = 0.05;
+const TRUST_NONE: f32 = 0.5;
 /// `brdf::MIN_COS`, squared where Smith's Lambda divides by cos².
 const MIN_COS: f32 = super::brdf::MIN_COS;
 
@@ -99,6 +102,17 @@ impl ExactLobes {
     }
 }
 
+/// How much each part of this light's U weighs in one pixel: lobe A's value
+/// (`ks mag share_a`), lobe B's (`(1 - ks) fres share_b`) and the diffuse
+/// part (`kd ff`), each averaged over the channels. The refinement spends
+/// nodes on a pixel only where the cubature's miss would show in it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Stakes {
+    pub a: Wide,
+    pub b: Wide,
+    pub diffuse: Wide,
+}
+
 /// The factors to multiply the two lobes' LTC integrals by, `(A, B)`.
 ///
 /// - `poly`: the light polygon in the shading frame (z = normal, view in
@@ -108,7 +122,8 @@ impl ExactLobes {
 /// - `share_a`, `share_b`: each lobe's LTC integral over its magnitude (the
 ///   light's share of the modelled lobe, in [0, 1]);
 /// - `wo`: the view as the table was looked up, `(sin θv, 0, cos θv)`;
-///   `alpha`: GGX alpha.
+///   `alpha`: GGX alpha;
+/// - `stakes`: `Stakes` (a, b, diffuse) of this pixel and light.
 ///
 /// One pixel through `lobe_factors_lanes` (in lane 0; the batched U runs
 /// `LANES`), so the scalar and batched paths compute the same factor with
@@ -120,6 +135,7 @@ pub fn lobe_factors(
     share_b: f32,
     wo: Vec3,
     alpha: f32,
+    stakes: [f32; 3],
 ) -> (f32, f32) {
     let n = poly.len().min(MAX_VERTICES);
     let k = || {
@@ -129,43 +145,50 @@ pub fn lobe_factors(
             Vec4::splat(alpha),
         )
     };
-    let s = (share_a, share_b);
+    let s = Pixel {
+        share_a,
+        share_b,
+        stakes: Stakes {
+            a: Wide::splat(stakes[0]),
+            b: Wide::splat(stakes[1]),
+            diffuse: Wide::splat(stakes[2]),
+        },
+    };
     match n {
         0..=2 => (1.0, 1.0),
-        3 => one_pixel::<3>(poly, &k(), s),
-        4 => one_pixel::<4>(poly, &k(), s),
-        5 => one_pixel::<5>(poly, &k(), s),
-        6 => one_pixel::<6>(poly, &k(), s),
-        7 => one_pixel::<7>(poly, &k(), s),
-        8 => one_pixel::<8>(poly, &k(), s),
-        9 => one_pixel::<9>(poly, &k(), s),
-        _ => one_pixel::<MAX_VERTICES>(poly, &k(), s),
+        3 => one_pixel::<3>(poly, &k(), &s),
+        4 => one_pixel::<4>(poly, &k(), &s),
+        5 => one_pixel::<5>(poly, &k(), &s),
+        6 => one_pixel::<6>(poly, &k(), &s),
+        7 => one_pixel::<7>(poly, &k(), &s),
+        8 => one_pixel::<8>(poly, &k(), &s),
+        9 => one_pixel::<9>(poly, &k(), &s),
+        _ => one_pixel::<MAX_VERTICES>(poly, &k(), &s),
     }
 }
 
+/// One pixel's inputs to `lobe_factors` beyond its polygon.
+struct Pixel {
+    share_a: f32,
+    share_b: f32,
+    stakes: Stakes,
+}
+
 /// `lobe_factors` of an `N`-gon, in lane 0.
-fn one_pixel<const N: usize>(
-    poly: &[DVec3],
-    k: &CorrectionLanes,
-    (share_a, share_b): (f32, f32),
-) -> (f32, f32) {
+fn one_pixel<const N: usize>(poly: &[DVec3], k: &CorrectionLanes, p: &Pixel) -> (f32, f32) {
     let u: [Wide3; N] = std::array::from_fn(|i| {
         // As the batch's `inv_len`: a vertex at the point stays zero.
         let v = poly[i];
         let v = v / v.length_squared().max(f64::MIN_POSITIVE).sqrt();
         [Wide::splat(v.x), Wide::splat(v.y), Wide::splat(v.z)]
     });
-    let dots: [Wide; N] = std::array::from_fn(|i| {
-        dot(&u[i], &u[if i + 1 == N { 0 } else { i + 1 }]).clamp(-1.0, 1.0)
-    });
-    let centre = u.iter().fold([Wide::ZERO; 3], |c, v| add3(&c, v));
     let (a, b) = lobe_factors_lanes(
         &u,
-        &dots,
-        &centre,
+        None,
         k,
-        Wide::splat(share_a),
-        Wide::splat(share_b),
+        Wide::splat(p.share_a),
+        Wide::splat(p.share_b),
+        &p.stakes,
     );
     (a.0[0] as f32, b.0[0] as f32)
 }
@@ -175,6 +198,9 @@ fn one_pixel<const N: usize>(
 /// `lobe_factors` builds them for one pixel.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CorrectionLanes {
+    /// Lobe A's `M^-1` (m00, m02, m20, m22), per pixel in `f64`: it takes
+    /// the light into the space where the nodes are placed.
+    fwd: [Wide; 4],
     /// Per node (`f32`, each pixel's constant in both halves of `Wide8`:
     /// two nodes at a time).
     ma: [Wide8; 4],
@@ -183,6 +209,10 @@ pub struct CorrectionLanes {
     mb: [Wide8; 4],
     kdb: Wide8,
     kcb: Wide8,
+    /// Lobe A's `M` (the inverse of `fwd`) and `|det M|`: a node's
+    /// direction and solid angle back in the shading frame.
+    inv: [Wide8; 4],
+    det: Wide8,
     wox: Wide8,
     woz: Wide8,
     a2: Wide8,
@@ -205,6 +235,9 @@ impl CorrectionLanes {
         let (ma, kda, kca) = lobe_model(cells.ma(), cells.mag(), cells.mix(), inv * cells.fhmass());
         let (mb, kdb, kcb) =
             lobe_model(cells.mb(), cells.fres(), cells.fmix(), inv * cells.hmass());
+        // `M` from `M^-1`: the 2x2 inverse on (x, z); y is kept.
+        let r = Vec4::ONE / (ma[0] * ma[3] - ma[1] * ma[2]);
+        let m = [ma[3] * r, -ma[1] * r, -ma[2] * r, ma[0] * r];
         // `ExactLobes::new`: `brdf::smith_lambda(alpha, wo)` with wo.y = 0
         // (sin² = wo.x² + 0 is wo.x² exactly).
         let a2 = alpha * alpha;
@@ -214,12 +247,15 @@ impl CorrectionLanes {
         let lo2 = Vec4::ONE + Vec4::splat(2.0) * lambda;
         let k = Vec4::splat(2.0 * PI) * woz.abs().max(Vec4::splat(MIN_COS));
         CorrectionLanes {
+            fwd: ma.map(Wide::from_vec4),
             ma: ma.map(Wide8::twice),
             kda: Wide8::twice(kda),
             kca: Wide8::twice(kca),
             mb: mb.map(Wide8::twice),
             kdb: Wide8::twice(kdb),
             kcb: Wide8::twice(kcb),
+            inv: m.map(Wide8::twice),
+            det: Wide8::twice(r.abs()),
             wox: Wide8::twice(wox),
             woz: Wide8::twice(woz),
             a2: Wide8::twice(a2),
@@ -292,18 +328,34 @@ fn atan2_pos_lanes(y: Wide8, x: Wide8) -> Wide8 {
     base + num * den / d.max(Wide8::splat(1e-30))
 }
 
+/// A spherical triangle of lobe A's LTC space, per lane: three unit
+/// vectors (`f64`).
+type Tri = [Wide3; 3];
+
 /// `lobe_factors` for `LANES` pixels at once, across pixels: lane `l` is one
 /// pixel's light polygon (clipped to the horizon), given by its `N` unit
-/// vertices `u` (zero for a vertex at the shading point), the cosines
-/// `dots[i] = u[i] . u[i + 1]`, which the Lambert contour sum has computed
-/// already, and `centre`, the sum of the unit vertices. A lane's polygon
+/// vertices `u` (zero for a vertex at the shading point). A lane's polygon
 /// may repeat a vertex in consecutive slots (the batch pads clipped
-/// polygons to one vertex count): its fan triangle is degenerate and adds
-/// exactly 0, and `centre` counts the vertex once. Same nodes, weights and
-/// fades as `lobe_factors`; `tests/u_batch.rs` checks the two agree.
+/// polygons to one vertex count; `real` says which slots are its own): its
+/// fan triangle is degenerate and adds exactly 0. Same nodes, weights and
+/// fades as `lobe_factors`; `ltc::u_batch` checks the two agree.
+///
+/// Nodes live in lobe A's LTC space (`o = M^-1 w`), where that lobe is a
+/// clamped cosine at every roughness and view: the polygon's image is
+/// fanned there from its centroid direction, one node per fan triangle at
+/// its centroid, and each node is taken back to the shading frame with its
+/// solid angle scaled by `|det M| / |M o|^3`. A fan in the shading frame
+/// instead puts four nodes across a glossy highlight that a light resolves,
+/// and misses the lobe's shape by tens of percent (docs/accuracy.md).
+///
+/// Where the nodes are unsure (`refine_weight`) by more than `REFINE_AT`
+/// of what this light adds to the pixel, each fan triangle is split into 4
+/// (and, still unsure, 16) pieces, blended in continuously; at 16 pieces a
+/// ratio that settles geometrically is carried to its limit
+/// (`extrapolated`); the trust fade then judges the finest level used.
 ///
 /// What cancels for a small light is computed in `f64`, per pixel: the
-/// fan's centre, each triangle's triple product and Van Oosterom-Strackee
+/// image, the fan, each triangle's triple product and Van Oosterom-Strackee
 /// denominator, and each node's (unnormalised) direction. The nodes
 /// themselves (solid angle, exact lobes, models) run in `f32`, two nodes
 /// per `Wide8` (each pixel's node `i` in lanes 0-3, node `i + 1` in lanes
@@ -312,48 +364,227 @@ fn atan2_pos_lanes(y: Wide8, x: Wide8) -> Wide8 {
 #[inline(always)]
 pub fn lobe_factors_lanes<const N: usize>(
     u: &[Wide3; N],
-    dots: &[Wide; N],
-    centre: &Wide3,
+    real: Option<&[Mask; N]>,
     k: &CorrectionLanes,
     share_a: Wide,
     share_b: Wide,
+    stakes: &Stakes,
 ) -> (Wide, Wide) {
+    let o: [Wide3; N] = std::array::from_fn(|i| unit(&ltc_map(&k.fwd, &u[i])));
+    let mut centre = [Wide::ZERO; 3];
+    for (i, v) in o.iter().enumerate() {
+        let v = match real {
+            Some(real) => v.map(|x| real[i].select(x, Wide::ZERO)),
+            None => *v,
+        };
+        centre = add3(&centre, &v);
+    }
     let c = scale3(
-        centre,
-        dot(centre, centre).max(Wide::splat(1e-30)).rsqrt_approx(),
+        &centre,
+        dot(&centre, &centre).max(Wide::splat(1e-30)).rsqrt_approx(),
     );
-    let cu: [Wide; N] = std::array::from_fn(|i| dot(&c, &u[i]));
+    let fan = |i: usize| -> Tri { [c, o[i], o[if i + 1 == N { 0 } else { i + 1 }]] };
     let mut sums = [Wide8::ZERO; 4];
     for pair in 0..N.div_ceil(2) {
-        let (n0, d0, m0) = fan_node(u, dots, &c, &cu, 2 * pair);
-        let (n1, d1, m1) = fan_node(u, dots, &c, &cu, 2 * pair + 1);
-        let (num, den) = (Wide8::join(n0, n1), Wide8::join(d0, d1));
-        let m = [
-            Wide8::join(m0[0], m1[0]),
-            Wide8::join(m0[1], m1[1]),
-            Wide8::join(m0[2], m1[2]),
-        ];
-        let (num, den, m) = shaped((num, den, m));
-        let omega = Wide8::splat(2.0) * atan2_pos_lanes(num, den);
-        let w = scale3(&m, dot(&m, &m).max(Wide8::splat(1e-30)).rsqrt_approx());
-        let wt = w[2].gt(Wide8::ZERO).select(omega, Wide8::ZERO);
-        let (ea, eb) = exact_lanes(k, &w);
-        sums[0] = wt.mul_add(ea, sums[0]);
-        sums[1] = wt.mul_add(eb, sums[1]);
-        sums[2] = wt.mul_add(model_lanes(&k.ma, k.kda, k.kca, &w), sums[2]);
-        sums[3] = wt.mul_add(model_lanes(&k.mb, k.kdb, k.kcb, &w), sums[3]);
+        let second = (2 * pair + 1 < N).then(|| tri_node(&fan(2 * pair + 1)));
+        node_pair(k, tri_node(&fan(2 * pair)), second, &mut sums);
     }
-    let sums = shaped(sums);
-    let [qfa, qfb, qga, qgb] = sums.map(Wide8::halves_sum);
+    let coarse = shaped(sums).map(Wide8::halves_sum);
+    let ltc = (share_a * k.maga, share_b * k.magb);
+    let t1 = refine_weight(&coarse, ltc, stakes);
+    let sums = if t1.gt(Wide::ZERO).any() {
+        let fine = refined_sums::<N, 1>(k, &fan);
+        let t2 = refine_weight(&fine, ltc, stakes);
+        let fine = if t2.gt(Wide::ZERO).any() {
+            let finer = extrapolated(&coarse, &fine, &refined_sums::<N, 2>(k, &fan));
+            blend(&fine, &finer, t2)
+        } else {
+            fine
+        };
+        blend(&coarse, &fine, t1)
+    } else {
+        coarse
+    };
+    let [qfa, qfb, qga, qgb] = sums;
     (
         factor_lanes(qfa, qga, share_a, k.maga),
         factor_lanes(qfb, qgb, share_b, k.magb),
     )
 }
 
-/// Triangle `i` of the fan about `c` (`cu[i] = c . u[i]`): its triple
-/// product, its Van Oosterom-Strackee denominator and its (unnormalised)
-/// centroid direction. A zero node past the last (weight 0, finite lobes).
+/// What the nodes are unsure of (`refine_weight`), as a share of what this
+/// light adds to the pixel, at which the fan triangles are split (and at
+/// twice which the split pieces replace them entirely). Chosen on
+/// `ltc::image_accuracy` among 0.005 / 0.02 / 0.05: 0.05 misses the goal on
+/// two scenes; 0.005 costs 1.4x the U time of 0.02 for the same errors
+/// (docs/accuracy.md).
+const REFINE_AT: f64 = 0.02;
+
+/// How far to trust the next level over `sums` (`[Q[fA], Q[fB], Q[ltcA],
+/// Q[ltcB]]`): 0 while what the nodes are unsure of weighs under
+/// `REFINE_AT` of the pixel's stakes, rising linearly to 1 at twice that.
+/// Per lobe, the nodes are unsure of their miss on the analytic LTC
+/// integral, and of the correction they ask for (`Q[f] / Q[ltc] - 1`): a
+/// lobe sharper than its model is undersampled by the same nodes that
+/// integrate the model well, so a correction that would change the pixel
+/// is checked at the finer level before it is applied.
+#[inline(always)]
+fn refine_weight(sums: &[Wide; 4], (ltc_a, ltc_b): (Wide, Wide), s: &Stakes) -> Wide {
+    let unsure = |qf: Wide, qg: Wide, ltc: Wide| {
+        let m = (qg / ltc - Wide::ONE).abs() + (qf / qg - Wide::ONE).abs();
+        ltc.gt(Wide::ZERO).and(m.finite()).select(m, Wide::ZERO)
+    };
+    let total = (s.a + s.b + s.diffuse).max(Wide::splat(1e-30));
+    let weighed =
+        unsure(sums[0], sums[2], ltc_a).mul_add(s.a, unsure(sums[1], sums[3], ltc_b) * s.b) / total;
+    let t = (weighed * Wide::splat(1.0 / REFINE_AT) - Wide::ONE).clamp(0.0, 1.0);
+    t.finite().select(t, Wide::ZERO)
+}
+
+/// Largest ratio of successive changes of `Q[f] / Q[ltc]` over the levels
+/// (1, 4, 16 pieces) that is taken for a geometric convergence.
+const SETTLING: f64 = 0.6;
+
+/// The finest sums with each lobe's ratio `Q[f] / Q[ltc]` carried to its
+/// limit where the three levels' ratios settle geometrically (the changes
+/// keep their sign and shrink by at most `SETTLING`): at grazing views the
+/// exact lobe is sharper than its model where the pieces are largest, and
+/// the ratio approaches its limit slowly (docs/accuracy.md).
+#[inline(always)]
+fn extrapolated(coarse: &[Wide; 4], fine: &[Wide; 4], finer: &[Wide; 4]) -> [Wide; 4] {
+    let mut out = *finer;
+    for lobe in 0..2 {
+        let rho = |s: &[Wide; 4]| s[lobe] / s[lobe + 2];
+        let (r0, r1, r2) = (rho(coarse), rho(fine), rho(finer));
+        let (d1, d2) = (r1 - r0, r2 - r1);
+        let q = d2 / d1;
+        let settles = q.gt(Wide::ZERO).and(q.lt(Wide::splat(SETTLING)));
+        let limit = r2 + d2 * q / (Wide::ONE - q);
+        let qf = limit * finer[lobe + 2];
+        out[lobe] = settles
+            .and(qf.finite())
+            .and(qf.ge(Wide::ZERO))
+            .select(qf, finer[lobe]);
+    }
+    out
+}
+
+/// `a + t (b - a)`, per sum.
+#[inline(always)]
+fn blend(a: &[Wide; 4], b: &[Wide; 4], t: Wide) -> [Wide; 4] {
+    std::array::from_fn(|i| t.mul_add(b[i] - a[i], a[i]))
+}
+
+/// The cubature sums with every fan triangle split into `4^LEVEL` pieces
+/// (midpoints of the edges, on the sphere), a node per piece.
+#[inline(never)]
+fn refined_sums<const N: usize, const LEVEL: u32>(
+    k: &CorrectionLanes,
+    fan: &impl Fn(usize) -> Tri,
+) -> [Wide; 4] {
+    let mut sums = [Wide8::ZERO; 4];
+    for i in 0..N {
+        let t = fan(i);
+        // A fan triangle degenerate in every lane (a padding slot) adds 0.
+        if !tri_node(&t).0.gt(Wide::ZERO).any() {
+            continue;
+        }
+        let pieces = split(&t);
+        if LEVEL == 1 {
+            split_pair(k, &pieces, &mut sums);
+        } else {
+            for p in &pieces {
+                split_pair(k, &split(p), &mut sums);
+            }
+        }
+    }
+    shaped(sums).map(Wide8::halves_sum)
+}
+
+/// The four pieces' nodes into `sums`, two at a time.
+#[inline(always)]
+fn split_pair(k: &CorrectionLanes, pieces: &[Tri; 4], sums: &mut [Wide8; 4]) {
+    node_pair(k, tri_node(&pieces[0]), Some(tri_node(&pieces[1])), sums);
+    node_pair(k, tri_node(&pieces[2]), Some(tri_node(&pieces[3])), sums);
+}
+
+/// A spherical triangle's four pieces: its corners' and its centre's, cut
+/// at the edges' midpoints.
+#[inline(always)]
+fn split(t: &Tri) -> [Tri; 4] {
+    let mid = |a: &Wide3, b: &Wide3| unit(&add3(a, b));
+    let (ab, bc, ca) = (mid(&t[0], &t[1]), mid(&t[1], &t[2]), mid(&t[2], &t[0]));
+    [[t[0], ab, ca], [ab, t[1], bc], [ca, bc, t[2]], [ab, bc, ca]]
+}
+
+/// `v / |v|` per lane; zero stays zero.
+#[inline(always)]
+fn unit(v: &Wide3) -> Wide3 {
+    scale3(
+        v,
+        Wide::ONE / dot(v, v).max(Wide::splat(f64::MIN_POSITIVE)).sqrt(),
+    )
+}
+
+/// The LTC image `M^-1 v` (m = m00, m02, m20, m22).
+#[inline(always)]
+fn ltc_map(m: &[Wide; 4], v: &Wide3) -> Wide3 {
+    [
+        m[0].mul_add(v[0], m[1] * v[2]),
+        v[1],
+        m[2].mul_add(v[0], m[3] * v[2]),
+    ]
+}
+
+/// A triangle's triple product, its Van Oosterom-Strackee denominator
+/// (`tan(Ω / 2) = num / den`) and its (unnormalised) centroid direction.
+#[inline(always)]
+fn tri_node(t: &Tri) -> (Wide, Wide, Wide3) {
+    let [a, b, c] = t;
+    let num = dot(a, &cross(b, c)).abs();
+    let den = Wide::ONE + dot(a, b) + dot(b, c) + dot(c, a);
+    (num, den, add3(&add3(a, b), c))
+}
+
+/// Two nodes (each pixel's `first` in lanes 0-3, `second` in 4-7; a zero
+/// node of weight 0 without one) into `sums`: each node's direction and
+/// solid angle taken back to the shading frame, where the exact lobes and
+/// the two models are evaluated.
+#[inline(always)]
+fn node_pair(
+    k: &CorrectionLanes,
+    first: (Wide, Wide, Wide3),
+    second: Option<(Wide, Wide, Wide3)>,
+    sums: &mut [Wide8; 4],
+) {
+    let (n1, d1, m1) = second.unwrap_or((Wide::ZERO, Wide::ONE, [Wide::ZERO; 3]));
+    let (n0, d0, m0) = first;
+    let (num, den) = (Wide8::join(n0, n1), Wide8::join(d0, d1));
+    let m = [
+        Wide8::join(m0[0], m1[0]),
+        Wide8::join(m0[1], m1[1]),
+        Wide8::join(m0[2], m1[2]),
+    ];
+    let (num, den, m) = shaped((num, den, m));
+    let omega = Wide8::splat(2.0) * atan2_pos_lanes(num, den);
+    let o = scale3(&m, dot(&m, &m).max(Wide8::splat(1e-30)).rsqrt_approx());
+    let wm = [
+        k.inv[0].mul_add(o[0], k.inv[1] * o[2]),
+        o[1],
+        k.inv[2].mul_add(o[0], k.inv[3] * o[2]),
+    ];
+    let r = dot(&wm, &wm).max(Wide8::splat(1e-30)).rsqrt_approx();
+    let w = scale3(&wm, r);
+    let wt = w[2]
+        .gt(Wide8::ZERO)
+        .select(omega * k.det * r * r * r, Wide8::ZERO);
+    let (ea, eb) = exact_lanes(k, &w);
+    sums[0] = wt.mul_add(ea, sums[0]);
+    sums[1] = wt.mul_add(eb, sums[1]);
+    sums[2] = wt.mul_add(model_lanes(&k.ma, k.kda, k.kca, &w), sums[2]);
+    sums[3] = wt.mul_add(model_lanes(&k.mb, k.kdb, k.kcb, &w), sums[3]);
+}
+
 /// Only shapes the code of the node loop, on the 8-lane inputs and the
 /// sums. Without AVX-512, `std::hint::black_box`: LLVM otherwise grows its
 /// vectors from the four-lane ends (the `f64` inputs, the per-pixel sums)
@@ -375,24 +606,6 @@ fn shaped<T>(x: T) -> T {
     }
 }
 
-#[inline(always)]
-fn fan_node<const N: usize>(
-    u: &[Wide3; N],
-    dots: &[Wide; N],
-    c: &Wide3,
-    cu: &[Wide; N],
-    i: usize,
-) -> (Wide, Wide, Wide3) {
-    if i >= N {
-        return (Wide::ZERO, Wide::ONE, [Wide::ZERO; 3]);
-    }
-    let j = if i + 1 == N { 0 } else { i + 1 };
-    let (a, b) = (&u[i], &u[j]);
-    let num = dot(c, &cross(a, b)).abs();
-    let den = Wide::ONE + cu[i] + dots[i] + cu[j];
-    (num, den, add3(&add3(c, a), b))
-}
-
 /// `factor` per lane.
 #[inline(always)]
 fn factor_lanes(qf: Wide, qg: Wide, share: Wide, mag: Wide) -> Wide {
@@ -400,8 +613,9 @@ fn factor_lanes(qf: Wide, qg: Wide, share: Wide, mag: Wide) -> Wide {
     let ltc = s * mag;
     let inv = Wide::ONE / (qg * ltc);
     let r = (qf * ltc * inv).min(Wide::splat(MAX_RATIO));
-    let trust =
-        (Wide::ONE - (qg * qg * inv - Wide::ONE).abs() * Wide::splat(1.0 / TRUST)).max(Wide::ZERO);
+    let miss = (qg * qg * inv - Wide::ONE).abs();
+    let trust = ((Wide::splat(TRUST_NONE) - miss) * Wide::splat(1.0 / (TRUST_NONE - TRUST_FULL)))
+        .clamp(0.0, 1.0);
     let k = Wide::ONE + (r - Wide::ONE) * trust * (Wide::ONE - s);
     let ok = qg
         .gt(Wide::ZERO)
@@ -522,9 +736,12 @@ mod tests {
         let cell = crate::shading::ltc::table().lookup(0.5, 0.5);
         let wo = Vec3::new(0.866, 0.0, 0.5);
         let line = [DVec3::Z, DVec3::new(0.0, 1.0, 1.0)];
-        assert_eq!(lobe_factors(&line, &cell, 0.1, 0.1, wo, 0.25), (1.0, 1.0));
+        assert_eq!(
+            lobe_factors(&line, &cell, 0.1, 0.1, wo, 0.25, [1.0; 3]),
+            (1.0, 1.0)
+        );
         let zero = [DVec3::ZERO; 4];
-        let (a, b) = lobe_factors(&zero, &cell, 0.0, 0.0, wo, 0.25);
+        let (a, b) = lobe_factors(&zero, &cell, 0.0, 0.0, wo, 0.25, [1.0; 3]);
         assert!(a == 1.0 && b == 1.0, "{a} {b}");
     }
 }

@@ -40,9 +40,9 @@
 //! path.
 
 use super::brdf::MIN_ALPHA;
-use super::lanes::{BatchFloat, Mask, Wide, Wide3, add3, dot};
+use super::lanes::{BatchFloat, Mask, Wide, Wide3, dot};
 use super::ltc::{self, CellLanes, LtcCell};
-use super::ltc_correction::{CorrectionLanes, lobe_factors_lanes};
+use super::ltc_correction::{CorrectionLanes, Stakes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
 use super::unshadowed::{ShadingLight, SurfacePoint, unshadowed_lobes_prepared};
 use crate::scene::Light;
@@ -504,26 +504,21 @@ fn sum_terms<const K: usize>(edges: &impl Edges<K>, live: Mask) -> (Wide, Wide) 
 
 /// The Lambert contour sum of the local polygon (`q` vertices, `e` edges;
 /// no vertex below the horizon in the lanes that count), its error bound,
-/// the vertex lengths, the unit vertices and the edge cosines (the
-/// last two feed the shape correction).
-#[allow(clippy::type_complexity)]
+/// the vertex lengths and the unit vertices (which feed the shape
+/// correction).
 #[inline(always)]
 fn lambert_sum<const N: usize>(
     q: &[Wide3; N],
     e: &[Wide3; N],
     live: Mask,
-) -> (Wide, Wide, [Wide; N], [Wide3; N], [Wide; N]) {
+) -> (Wide, Wide, [Wide; N], [Wide3; N]) {
     let len: [Wide; N] = std::array::from_fn(|i| length(&q[i]));
     let inv: [Wide; N] = std::array::from_fn(|i| Wide::ONE / len[i]);
     let edges = Unclipped { q, e, inv: &inv };
-    // The cosines again, for the correction: LLVM shares them with the sum
-    // below (making the edges once into arrays instead cost 2 % more
-    // instructions, `u_profile` under callgrind).
-    let dots: [Wide; N] = std::array::from_fn(|i| edges.edge(i).0);
     let (sum, bound) = sum_terms(&edges, live);
     let u: [Wide3; N] =
         std::array::from_fn(|i| [q[i][0] * inv[i], q[i][1] * inv[i], q[i][2] * inv[i]]);
-    (sum, bound, len, u, dots)
+    (sum, bound, len, u)
 }
 
 /// Contour sum of one LTC image (`m` applied to the local polygon), clipped
@@ -892,7 +887,7 @@ fn shade<const K: usize>(
     out: &mut LaneLobes,
 ) -> Mask {
     let eps = Wide::splat(ERR_ULPS * BatchFloat::EPSILON * 0.5 + POLY_ERR_F64);
-    let (sum_l, bnd_l, len_l, u, dots) = lambert_sum(q, e, fast);
+    let (sum_l, bnd_l, len_l, u) = lambert_sum(q, e, fast);
     // A contour sum's error: `eps` of its bound, plus the clip's slack.
     let err = |bound: Wide| match clipped {
         Some((_, slack)) => eps.mul_add(bound, slack),
@@ -919,15 +914,18 @@ fn shade<const K: usize>(
         let (sum_b, bnd_b, gain_b) = lobe_sum(&b.mb, b.norm_b, lobe.and(b.want_b));
         let share_a = b.wa.mul_add(form_factor(sum_a), b.mix * ff);
         let share_b = b.wb.mul_add(form_factor(sum_b), b.fmix * ff);
-        let mut centre = [Wide::ZERO; 3];
-        for (i, u) in u.iter().enumerate() {
-            let u = match clipped {
-                Some((real, _)) => u.map(|x| real[i].select(x, Wide::ZERO)),
-                None => *u,
-            };
-            centre = add3(&centre, &u);
-        }
-        let (ka, kb) = lobe_factors_lanes(&u, &dots, &centre, &b.corr, share_a, share_b);
+        let third = Wide::splat(1.0 / 3.0);
+        let mean = |v: [Wide; 3]| (v[0] + v[1] + v[2]) * third;
+        let stakes = Stakes {
+            a: b.lobe.select(b.mag * share_a * mean(b.ks), Wide::ZERO),
+            b: b.want_b.select(
+                b.fres * share_b * mean(b.ks.map(|k| Wide::ONE - k)),
+                Wide::ZERO,
+            ),
+            diffuse: mean(b.kd) * ff,
+        };
+        let real = clipped.map(|(real, _)| real);
+        let (ka, kb) = lobe_factors_lanes(&u, real, &b.corr, share_a, share_b, &stakes);
         let err_a = err(bnd_a) * gain_a * Wide::splat(0.5 / std::f64::consts::PI);
         let err_b = err(bnd_b) * gain_b * Wide::splat(0.5 / std::f64::consts::PI);
         let a = b.lobe.select(b.mag * share_a * ka, Wide::ZERO);

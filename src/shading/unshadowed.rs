@@ -173,7 +173,21 @@ pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Ve
     let alpha = super::brdf::alpha_from_roughness(sp.roughness);
     let share_a = (1.0 - c.mix) * form_factor(ia) as f32 / c.hmass + c.mix * ff;
     let share_b = (1.0 - c.fmix) * form_factor(ib) as f32 / c.fhmass + c.fmix * ff;
-    let (ka, kb) = lobe_factors(poly.vertices(), &c, share_a, share_b, wo, alpha);
+    let mean = |v: Vec3| (v.x + v.y + v.z) * (1.0 / 3.0);
+    let stakes = [
+        if want_a {
+            c.mag * share_a * mean(sp.specular)
+        } else {
+            0.0
+        },
+        if want_b {
+            c.fres * share_b * mean(Vec3::ONE - sp.specular)
+        } else {
+            0.0
+        },
+        mean(sp.diffuse) * ff,
+    ];
+    let (ka, kb) = lobe_factors(poly.vertices(), &c, share_a, share_b, wo, alpha, stakes);
     let a = if want_a { c.mag * share_a * ka } else { 0.0 };
     let b = if want_b { c.fres * share_b * kb } else { 0.0 };
     let specular = light.radiance * (sp.specular * a + (Vec3::ONE - sp.specular) * b);

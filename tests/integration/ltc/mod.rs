@@ -2,6 +2,7 @@
 
 mod accuracy;
 mod hard_cases;
+mod image_accuracy;
 mod light_bound;
 mod properties;
 mod u_batch;
