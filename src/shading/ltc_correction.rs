@@ -34,11 +34,14 @@
 use super::lanes::{Mask, Vec3Lanes, Wide, Wide3, Wide8, add3, cross, dot, scale3};
 use super::ltc::{CellLanes, LtcCell};
 use super::polygon::MAX_VERTICES;
+use super::u_batch::ltc_map;
 use glam::{DVec3, Vec3, Vec4};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 /// Largest correction factor (the ratio only runs away where the model has
-/// almost no mass).
+/// almost no mass). At 88-89 degree views the exact lobe holds up to 23x
+/// the LTC's mass over a far light (`ltc::image_accuracy`, side-wall), so
+/// the bound sits well above that.
 const MAX_RATIO: f32 = 32.0;
 /// The cubature's relative miss on the analytic LTC integral up to which
 /// the correction is applied in full, and at which it is dropped entirely
@@ -524,16 +527,6 @@ fn unit(v: &Wide3) -> Wide3 {
         v,
         Wide::ONE / dot(v, v).max(Wide::splat(f64::MIN_POSITIVE)).sqrt(),
     )
-}
-
-/// The LTC image `M^-1 v` (m = m00, m02, m20, m22).
-#[inline(always)]
-fn ltc_map(m: &[Wide; 4], v: &Wide3) -> Wide3 {
-    [
-        m[0].mul_add(v[0], m[1] * v[2]),
-        v[1],
-        m[2].mul_add(v[0], m[3] * v[2]),
-    ]
 }
 
 /// A triangle's triple product, its Van Oosterom-Strackee denominator

@@ -367,7 +367,7 @@ fn rotate(frame: &[Wide3; 3], d: &Wide3) -> Wide3 {
 
 /// The LTC image `M^-1 v` (m = m00, m02, m20, m22).
 #[inline(always)]
-fn ltc_map(m: &[Wide; 4], v: &Wide3) -> Wide3 {
+pub(super) fn ltc_map(m: &[Wide; 4], v: &Wide3) -> Wide3 {
     [
         m[0].mul_add(v[0], m[1] * v[2]),
         v[1],
