@@ -359,7 +359,7 @@ impl Tile {
                 form_factors(&self.wide, &light.vertices, &mut self.form_factors);
             }
             let mut lobes = LaneLobes::default();
-            for (run, &leave) in self.runs.iter().zip(&self.leave_out) {
+            for (run, &leave) in self.runs.iter_mut().zip(&self.leave_out) {
                 let points = run.count as u64;
                 if leave && wide {
                     for q in run.first..run.first + run.count {
@@ -372,6 +372,11 @@ impl Tile {
                     counts.lambert_wide += points;
                     continue;
                 }
+                let mut others = [0.0; LANES];
+                for (q, l) in run.lanes() {
+                    others[l] = self.kept[q];
+                }
+                run.batch.set_others(others);
                 let c = if leave {
                     diffuse_batch(&run.batch, &lights[i], &mut lobes)
                 } else {

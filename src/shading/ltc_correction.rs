@@ -114,6 +114,8 @@ pub struct Stakes {
     pub a: Wide,
     pub b: Wide,
     pub diffuse: Wide,
+    /// What the pixel's other lights give it, in this light's units.
+    pub others: Wide,
 }
 
 /// The factors to multiply the two lobes' LTC integrals by, `(A, B)`.
@@ -126,7 +128,7 @@ pub struct Stakes {
 ///   light's share of the modelled lobe, in [0, 1]);
 /// - `wo`: the view as the table was looked up, `(sin θv, 0, cos θv)`;
 ///   `alpha`: GGX alpha;
-/// - `stakes`: `Stakes` (a, b, diffuse) of this pixel and light.
+/// - `stakes`: `Stakes` (a, b, diffuse, others) of this pixel and light.
 ///
 /// One pixel through `lobe_factors_lanes` (in lane 0; the batched U runs
 /// `LANES`), so the scalar and batched paths compute the same factor with
@@ -138,7 +140,7 @@ pub fn lobe_factors(
     share_b: f32,
     wo: Vec3,
     alpha: f32,
-    stakes: [f32; 3],
+    stakes: [f32; 4],
 ) -> (f32, f32) {
     let n = poly.len().min(MAX_VERTICES);
     let k = || {
@@ -155,6 +157,7 @@ pub fn lobe_factors(
             a: Wide::splat(stakes[0]),
             b: Wide::splat(stakes[1]),
             diffuse: Wide::splat(stakes[2]),
+            others: Wide::splat(stakes[3]),
         },
     };
     match n {
@@ -397,7 +400,7 @@ pub fn lobe_factors_lanes<const N: usize>(
     let t1 = refine_weight(&coarse, ltc, stakes);
     let sums = if t1.gt(Wide::ZERO).any() {
         let fine = refined_sums::<N, 1>(k, &fan);
-        let t2 = refine_weight(&fine, ltc, stakes);
+        let t2 = settle_weight(&coarse, &fine, ltc, stakes);
         let fine = if t2.gt(Wide::ZERO).any() {
             let finer = extrapolated(&coarse, &fine, &refined_sums::<N, 2>(k, &fan));
             blend(&fine, &finer, t2)
@@ -437,9 +440,32 @@ fn refine_weight(sums: &[Wide; 4], (ltc_a, ltc_b): (Wide, Wide), s: &Stakes) -> 
         let m = (qg / ltc - Wide::ONE).abs() + (qf / qg - Wide::ONE).abs();
         ltc.gt(Wide::ZERO).and(m.finite()).select(m, Wide::ZERO)
     };
-    let total = (s.a + s.b + s.diffuse).max(Wide::splat(1e-30));
+    let total = (s.a + s.b + s.diffuse + s.others).max(Wide::splat(1e-30));
     let weighed =
         unsure(sums[0], sums[2], ltc_a).mul_add(s.a, unsure(sums[1], sums[3], ltc_b) * s.b) / total;
+    let t = (weighed * Wide::splat(1.0 / REFINE_AT) - Wide::ONE).clamp(0.0, 1.0);
+    t.finite().select(t, Wide::ZERO)
+}
+
+/// How far to trust the finest level over the split sums `fine`: as
+/// `refine_weight`, but what the split nodes are unsure of is their own miss
+/// on the analytic LTC integral and how far the ratio `Q[f] / Q[ltc]` moved
+/// from the coarse nodes to them (the size of the correction no longer
+/// counts: its check is this change).
+#[inline(always)]
+fn settle_weight(
+    coarse: &[Wide; 4],
+    fine: &[Wide; 4],
+    (ltc_a, ltc_b): (Wide, Wide),
+    s: &Stakes,
+) -> Wide {
+    let unsure = |lobe: usize, ltc: Wide| {
+        let rho = |x: &[Wide; 4]| x[lobe] / x[lobe + 2];
+        let m = (fine[lobe + 2] / ltc - Wide::ONE).abs() + (rho(fine) - rho(coarse)).abs();
+        ltc.gt(Wide::ZERO).and(m.finite()).select(m, Wide::ZERO)
+    };
+    let total = (s.a + s.b + s.diffuse + s.others).max(Wide::splat(1e-30));
+    let weighed = unsure(0, ltc_a).mul_add(s.a, unsure(1, ltc_b) * s.b) / total;
     let t = (weighed * Wide::splat(1.0 / REFINE_AT) - Wide::ONE).clamp(0.0, 1.0);
     t.finite().select(t, Wide::ZERO)
 }
@@ -730,11 +756,11 @@ mod tests {
         let wo = Vec3::new(0.866, 0.0, 0.5);
         let line = [DVec3::Z, DVec3::new(0.0, 1.0, 1.0)];
         assert_eq!(
-            lobe_factors(&line, &cell, 0.1, 0.1, wo, 0.25, [1.0; 3]),
+            lobe_factors(&line, &cell, 0.1, 0.1, wo, 0.25, [1.0; 4]),
             (1.0, 1.0)
         );
         let zero = [DVec3::ZERO; 4];
-        let (a, b) = lobe_factors(&zero, &cell, 0.0, 0.0, wo, 0.25, [1.0; 3]);
+        let (a, b) = lobe_factors(&zero, &cell, 0.0, 0.0, wo, 0.25, [1.0; 4]);
         assert!(a == 1.0 && b == 1.0, "{a} {b}");
     }
 }

@@ -44,7 +44,8 @@ use super::lanes::{BatchFloat, Mask, Wide, Wide3, dot};
 use super::ltc::{self, CellLanes, LtcCell};
 use super::ltc_correction::{CorrectionLanes, Stakes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
-use super::unshadowed::{ShadingLight, SurfacePoint, unshadowed_lobes_prepared};
+use super::unshadowed::{ShadingLight, SurfacePoint, unshadowed_lobes_among};
+use crate::color::luminance;
 use crate::scene::Light;
 use glam::{BVec4A, DVec3, Vec3, Vec4};
 
@@ -130,6 +131,10 @@ pub struct PixelBatch {
     mag: Wide,
     fres: Wide,
     corr: CorrectionLanes,
+    /// What the lights already shaded give each lane (luminance of `U`):
+    /// the shape correction is refined only where this light's doubt
+    /// matters against the pixel's whole `U` (`set_others`; 0 until set).
+    others: Wide,
 }
 
 impl PixelBatch {
@@ -214,8 +219,15 @@ impl PixelBatch {
             mag: Wide::from_vec4(cells.mag()),
             fres: Wide::from_vec4(cells.fres()),
             corr: CorrectionLanes::new(&cells, view, alpha),
+            others: Wide::ZERO,
             sp: sp.map(|s| *s),
         }
+    }
+
+    /// The luminance of `U` that other lights give each lane, for the next
+    /// light's shape correction to weigh its doubt against.
+    pub fn set_others(&mut self, others: [f32; LANES]) {
+        self.others = Wide::from_vec4(Vec4::from_array(others));
     }
 
     /// The shading point of lane `l`, if any.
@@ -830,7 +842,7 @@ fn lobes_n<const N: usize, const K: usize>(
     if hard.any() {
         for l in 0..LANES {
             if hard.lane(l) {
-                let (d, s) = unshadowed_lobes_prepared(&b.sp[l], &light.scalar);
+                let (d, s) = unshadowed_lobes_among(&b.sp[l], &light.scalar, b.others.0[l] as f32);
                 out.set_lane(l, (d, if specular { s } else { Vec3::ZERO }));
                 counts.scalar += 1;
             }
@@ -923,6 +935,7 @@ fn shade<const K: usize>(
                 Wide::ZERO,
             ),
             diffuse: mean(b.kd) * ff,
+            others: b.others / Wide::splat(BatchFloat::from(luminance(light.radiance)).max(1e-30)),
         };
         let real = clipped.map(|(real, _)| real);
         let (ka, kb) = lobe_factors_lanes(&u, real, &b.corr, share_a, share_b, &stakes);

@@ -20,6 +20,7 @@ use super::ltc_correction::lobe_factors;
 use super::polygon::{
     MAX_LIGHT_VERTICES, MAX_VERTICES, Polygon, clip_upper_into, edge_sum_fixed, edge_sum_triple,
 };
+use crate::color::luminance;
 use crate::scene::Light;
 use glam::{DVec3, Vec3};
 
@@ -94,6 +95,17 @@ pub fn unshadowed_prepared(sp: &SurfacePoint, light: &ShadingLight) -> Vec3 {
 
 /// `unshadowed_lobes` with a prepared light.
 pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Vec3, Vec3) {
+    unshadowed_lobes_among(sp, light, 0.0)
+}
+
+/// `unshadowed_lobes_prepared` at a point to which other lights give
+/// `others` (luminance of their `U`): the shape correction weighs its doubt
+/// against the pixel's whole `U`, as the batched path does.
+pub fn unshadowed_lobes_among(
+    sp: &SurfacePoint,
+    light: &ShadingLight,
+    others: f32,
+) -> (Vec3, Vec3) {
     let zero = (Vec3::ZERO, Vec3::ZERO);
     let nv = light.n;
     if nv < 3 {
@@ -186,6 +198,7 @@ pub fn unshadowed_lobes_prepared(sp: &SurfacePoint, light: &ShadingLight) -> (Ve
             0.0
         },
         mean(sp.diffuse) * ff,
+        others / luminance(light.radiance).max(1e-30),
     ];
     let (ka, kb) = lobe_factors(poly.vertices(), &c, share_a, share_b, wo, alpha, stakes);
     let a = if want_a { c.mag * share_a * ka } else { 0.0 };
