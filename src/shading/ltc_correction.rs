@@ -107,14 +107,16 @@ impl ExactLobes {
 
 /// How much each part of this light's U weighs in one pixel: lobe A's value
 /// (`ks mag share_a`), lobe B's (`(1 - ks) fres share_b`) and the diffuse
-/// part (`kd ff`), each averaged over the channels. The refinement spends
-/// nodes on a pixel only where the cubature's miss would show in it.
+/// part (`kd ff`), each averaged over the channels, and what the lights
+/// shaded before it give the pixel. The refinement spends nodes on a pixel
+/// only where the cubature's miss would show in it.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Stakes {
     pub a: Wide,
     pub b: Wide,
     pub diffuse: Wide,
-    /// What the pixel's other lights give it, in this light's units.
+    /// What the lights shaded before this one give the pixel, in this
+    /// light's units (radiance divided out).
     pub others: Wide,
 }
 
@@ -355,8 +357,9 @@ type Tri = [Wide3; 3];
 /// and misses the lobe's shape by tens of percent (docs/accuracy.md).
 ///
 /// Where the nodes are unsure (`refine_weight`) by more than `REFINE_AT`
-/// of what this light adds to the pixel, each fan triangle is split into 4
-/// (and, still unsure, 16) pieces, blended in continuously; at 16 pieces a
+/// of the pixel's `U` (this light's and the lights' shaded before it), each
+/// fan triangle is split into 4 pieces, and where the ratio still moves
+/// (`settle_weight`) into 16, blended in continuously; at 16 pieces a
 /// ratio that settles geometrically is carried to its limit
 /// (`extrapolated`); the trust fade then judges the finest level used.
 ///
@@ -418,8 +421,8 @@ pub fn lobe_factors_lanes<const N: usize>(
     )
 }
 
-/// What the nodes are unsure of (`refine_weight`), as a share of what this
-/// light adds to the pixel, at which the fan triangles are split (and at
+/// What the nodes are unsure of (`refine_weight`), as a share of the
+/// pixel's stakes (`Stakes`), at which the fan triangles are split (and at
 /// twice which the split pieces replace them entirely). Chosen on
 /// `ltc::image_accuracy` among 0.005 / 0.02 / 0.05: 0.05 misses the goal on
 /// two scenes; 0.005 costs 1.4x the U time of 0.02 for the same errors
@@ -427,8 +430,7 @@ pub fn lobe_factors_lanes<const N: usize>(
 const REFINE_AT: f64 = 0.02;
 
 /// How far to trust the next level over `sums` (`[Q[fA], Q[fB], Q[ltcA],
-/// Q[ltcB]]`): 0 while what the nodes are unsure of weighs under
-/// `REFINE_AT` of the pixel's stakes, rising linearly to 1 at twice that.
+/// Q[ltcB]]`), by `trust_next`.
 /// Per lobe, the nodes are unsure of their miss on the analytic LTC
 /// integral, and of the correction they ask for (`Q[f] / Q[ltc] - 1`): a
 /// lobe sharper than its model is undersampled by the same nodes that
@@ -440,9 +442,19 @@ fn refine_weight(sums: &[Wide; 4], (ltc_a, ltc_b): (Wide, Wide), s: &Stakes) -> 
         let m = (qg / ltc - Wide::ONE).abs() + (qf / qg - Wide::ONE).abs();
         ltc.gt(Wide::ZERO).and(m.finite()).select(m, Wide::ZERO)
     };
+    trust_next(
+        unsure(sums[0], sums[2], ltc_a),
+        unsure(sums[1], sums[3], ltc_b),
+        s,
+    )
+}
+
+/// 0 while the lobes' doubts `unsure_a`, `unsure_b` weigh under `REFINE_AT`
+/// of the pixel's stakes, rising linearly to 1 at twice that.
+#[inline(always)]
+fn trust_next(unsure_a: Wide, unsure_b: Wide, s: &Stakes) -> Wide {
     let total = (s.a + s.b + s.diffuse + s.others).max(Wide::splat(1e-30));
-    let weighed =
-        unsure(sums[0], sums[2], ltc_a).mul_add(s.a, unsure(sums[1], sums[3], ltc_b) * s.b) / total;
+    let weighed = unsure_a.mul_add(s.a, unsure_b * s.b) / total;
     let t = (weighed * Wide::splat(1.0 / REFINE_AT) - Wide::ONE).clamp(0.0, 1.0);
     t.finite().select(t, Wide::ZERO)
 }
@@ -464,10 +476,7 @@ fn settle_weight(
         let m = (fine[lobe + 2] / ltc - Wide::ONE).abs() + (rho(fine) - rho(coarse)).abs();
         ltc.gt(Wide::ZERO).and(m.finite()).select(m, Wide::ZERO)
     };
-    let total = (s.a + s.b + s.diffuse + s.others).max(Wide::splat(1e-30));
-    let weighed = unsure(0, ltc_a).mul_add(s.a, unsure(1, ltc_b) * s.b) / total;
-    let t = (weighed * Wide::splat(1.0 / REFINE_AT) - Wide::ONE).clamp(0.0, 1.0);
-    t.finite().select(t, Wide::ZERO)
+    trust_next(unsure(0, ltc_a), unsure(1, ltc_b), s)
 }
 
 /// Largest ratio of successive changes of `Q[f] / Q[ltc]` over the levels

@@ -4,6 +4,7 @@ mod accuracy;
 mod hard_cases;
 mod image_accuracy;
 mod light_bound;
+mod many_lights_image;
 mod properties;
 mod u_batch;
 mod unshadowed_mode;
