@@ -21,14 +21,14 @@ use penumbra::shading::SurfacePoint;
 use penumbra::shading::u_batch::{BatchLight, LANES, LaneLobes, PixelBatch, lobes_batch};
 
 /// Median relative error of U over the lit pixels of one image.
-const MEDIAN_GOAL: f32 = 0.01;
+pub(super) const MEDIAN_GOAL: f32 = 0.01;
 /// 95th percentile of the same.
-const P95_GOAL: f32 = 0.05;
+pub(super) const P95_GOAL: f32 = 0.05;
 /// A pixel counts as lit where its reference U is at least this share of
 /// the image's brightest.
 const LIT_SHARE: f32 = 1e-3;
 /// The reference quadrature's relative tolerance.
-const REFERENCE_TOL: f64 = 1e-4;
+pub(super) const REFERENCE_TOL: f64 = 1e-4;
 const WIDTH: usize = 48;
 const HEIGHT: usize = 27;
 const ROUGHNESS: [f32; 12] = [
@@ -105,14 +105,18 @@ fn errors(s: &Scene, roughness: f32) -> (Vec<f32>, bool) {
         })
         .collect();
     let finite = got.iter().all(|v| v.is_finite());
+    (lit_errors(&got, &want), finite)
+}
+
+/// The relative error (worst channel) of each lit pixel of `got` against
+/// `want` (lit: `want` at least `LIT_SHARE` of the image's brightest).
+pub(super) fn lit_errors(got: &[Vec3], want: &[Vec3]) -> Vec<f32> {
     let brightest = want.iter().map(|v| v.max_element()).fold(0.0, f32::max);
-    let errs = got
-        .iter()
-        .zip(&want)
+    got.iter()
+        .zip(want)
         .filter(|(_, w)| w.max_element() >= LIT_SHARE * brightest && w.min_element() > 0.0)
         .map(|(g, w)| ((*g - *w).abs() / *w).max_element())
-        .collect();
-    (errs, finite)
+        .collect()
 }
 
 /// Sweeps roughness over `s`, printing each row, and checks the goal (or a

@@ -7,6 +7,7 @@
 //! surface pixels (`cargo test --release --test integration
 //! ltc::many_lights_image -- --nocapture`).
 
+use super::image_accuracy::{MEDIAN_GOAL, P95_GOAL, REFERENCE_TOL, lit_errors};
 use crate::support::load;
 use crate::support::ltc::{quantile, reference};
 use glam::Vec3;
@@ -14,16 +15,8 @@ use penumbra::embree::{self, Device};
 use penumbra::render::estimate::surface_point;
 use penumbra::render::{Frame, Mode, PixelKind, RenderSettings, World};
 
-/// Median relative error of U (worst channel) over the lit surface pixels:
-/// the goal of a single light's image.
-const MEDIAN_GOAL: f32 = 0.01;
-/// 95th percentile of the same: the single-light goal (culling may take
-/// up to the shipped 2 % tolerance on top of the LTC's own error).
-const P95_GOAL: f32 = 0.05;
-/// A pixel counts as lit where its reference U is at least this share of
-/// the frame's brightest.
-const LIT_SHARE: f32 = 1e-3;
-const REFERENCE_TOL: f64 = 1e-4;
+// Held to the single-light images' goals (`image_accuracy`); culling may
+// take up to the shipped 2 % tolerance on top of the LTC's own error.
 const WIDTH: u32 = 48;
 const HEIGHT: u32 = 27;
 
@@ -52,14 +45,7 @@ fn the_halls_u_with_every_light_is_within_goal() {
         }
     }
     assert!(frame.u.iter().all(|u| u.is_finite()), "a non-finite U");
-    let brightest = want.iter().map(|v| v.max_element()).fold(0.0, f32::max);
-    let mut errors: Vec<f32> = frame
-        .u
-        .iter()
-        .zip(&want)
-        .filter(|(_, w)| w.max_element() >= LIT_SHARE * brightest && w.min_element() > 0.0)
-        .map(|(g, w)| ((*g - *w).abs() / *w).max_element())
-        .collect();
+    let mut errors = lit_errors(&frame.u, &want);
     assert!(
         errors.len() as u32 > WIDTH * HEIGHT / 4,
         "{} lit pixels",
