@@ -8,21 +8,9 @@ APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 
 .PHONY: run test test-embree4 deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun golden-bless
 
-# The instruction set `make` builds for: the best level this machine runs,
-# x86-64-v4 (AVX-512) or else x86-64-v3 (AVX2, FMA) or else baseline x86-64.
-# A plain `cargo build` targets baseline x86-64 and runs on any x86-64, at
-# about 1.5x the frame time (docs/performance.md, *Build target*). A
-# RUSTFLAGS given by the caller wins.
-X86_64_V4 := avx512f avx512bw avx512cd avx512dq avx512vl
-X86_64_V3 := avx2 fma bmi1 bmi2 movbe f16c
-cpu_has = $(if $(shell for f in $(1); do grep -qw $$f /proc/cpuinfo 2>/dev/null || echo no; done),,yes)
-ifeq ($(call cpu_has,$(X86_64_V4)),yes)
-export RUSTFLAGS ?= -C target-cpu=x86-64-v4
-else ifeq ($(call cpu_has,$(X86_64_V3)),yes)
-export RUSTFLAGS ?= -C target-cpu=x86-64-v3
-endif
-# valgrind cannot decode AVX-512: its runs use an x86-64-v3 build of their own.
-V3 := RUSTFLAGS="-C target-cpu=x86-64-v3" CARGO_TARGET_DIR=target/v3
+# No target CPU is forced: one build runs on any x86-64 CPU, and its hot
+# loops pick AVX-512, AVX2 or baseline at run time (src/isa.rs;
+# PENUMBRA_ISA=baseline|avx2|avx512 caps the level).
 
 # Installs missing Debian packages when root or sudo is available.
 deps:
@@ -95,11 +83,12 @@ fuzz: deps
 # definitely lost, in any code fails the run (--error-exitcode). No
 # suppressions are needed with Debian's Embree 3.13 / TBB (see docs/robustness.md).
 VALGRIND := valgrind --tool=memcheck --error-exitcode=99 --errors-for-leak-kinds=definite --leak-check=full --track-origins=yes --num-callers=30
-memcheck: deps
-	$(V3) $(CARGO) build --release
+# valgrind runs no AVX-512 and reports none to the program, whose hot loops
+# then run their AVX2 (or baseline) code: the same build serves.
+memcheck: build
 	mkdir -p out
-	nice -n 19 $(VALGRIND) target/v3/release/penumbra render --width 24 --height 16 --frames 2 --threads 2 --spp 2 --out out/memcheck.png
-	nice -n 19 $(VALGRIND) target/v3/release/penumbra render scenes/room.toml --mode reference --width 16 --height 12 --frames 2 --spp 2 --threads 2 --aov albedo,normal,depth,u,un,sn,ratio --out out/memcheck-room.exr
+	nice -n 19 $(VALGRIND) $(BIN) render --width 24 --height 16 --frames 2 --threads 2 --spp 2 --out out/memcheck.png
+	nice -n 19 $(VALGRIND) $(BIN) render scenes/room.toml --mode reference --width 16 --height 12 --frames 2 --spp 2 --threads 2 --aov albedo,normal,depth,u,un,sn,ratio --out out/memcheck-room.exr
 
 # Long runs with flat memory (not in `make test`): 5000 frames of `render` and
 # of the scripted viewer under Xvfb, at a small size; scripts/longrun.sh samples

@@ -97,7 +97,7 @@ fn main() {
     println!("cargo::rustc-check-cfg=cfg(embree4)");
     if let Some(missing) = missing_cpu_features() {
         println!(
-            "cargo::error=this build targets AVX-512 (RUSTFLAGS) but this CPU lacks {missing}: build with `make`, which picks the best level this CPU runs, or set RUSTFLAGS=\"-C target-cpu=x86-64-v3\""
+            "cargo::error=this build targets AVX-512 (RUSTFLAGS) but this CPU lacks {missing}: build without a target CPU (`make`, or `cargo build --release` with RUSTFLAGS unset); the hot loops pick the best level this CPU runs at run time"
         );
         return;
     }

@@ -6,10 +6,10 @@
 //! per-pixel setup alone, no light; its time is per pixel).
 //!
 //! Instructions (deterministic, unlike time on a shared machine) under
-//! callgrind, which cannot run the AVX-512 build of `.cargo/config.toml`:
-//! `RUSTFLAGS="-C target-cpu=x86-64-v3" CARGO_TARGET_DIR=target/v3 cargo
-//! build --release --example u_profile && valgrind --tool=callgrind
-//! target/v3/release/examples/u_profile 20` (81,920 evaluations). Without
+//! callgrind, which runs no AVX-512 (the AVX2 level of `isa` runs there):
+//! `cargo build --release --example u_profile && valgrind
+//! --tool=callgrind target/release/examples/u_profile 20` (81,920
+//! evaluations); `PENUMBRA_ISA` picks a level. Without
 //! valgrind it prints its own ns per evaluation (a hint: take the minimum
 //! of several runs).
 

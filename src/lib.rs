@@ -9,6 +9,7 @@ pub mod color;
 pub mod compare;
 pub mod denoise;
 pub mod embree;
+pub mod isa;
 pub mod output;
 pub mod render;
 pub mod report;

@@ -261,6 +261,12 @@ struct CompareArgs {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // A level that is not one, or one this CPU lacks, is an error here, not
+    // a silent fall-back inside the hot loops.
+    if let Err(e) = penumbra::isa::Isa::requested() {
+        eprintln!("penumbra: {e}");
+        return ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Command::Compare(a) => return cmd_compare(a),
         Command::Render(a) => cmd_render(a),

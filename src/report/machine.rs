@@ -1,6 +1,7 @@
 //! What a benchmark ran on and which code it measured, so two runs can be
 //! compared.
 
+use crate::isa::Isa;
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -10,6 +11,9 @@ pub struct Machine {
     /// `model name` from /proc/cpuinfo ("unknown" where there is none).
     pub cpu_model: String,
     pub os: String,
+    /// The instruction set the hot loops ran (`isa::Isa::name`).
+    #[serde(default)]
+    pub isa: String,
 }
 
 impl Machine {
@@ -19,6 +23,7 @@ impl Machine {
             cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
             cpu_model: cpu_model(&cpuinfo).unwrap_or_else(|| "unknown".into()),
             os: std::env::consts::OS.to_string(),
+            isa: Isa::active().name().to_string(),
         }
     }
 }

@@ -8,11 +8,12 @@ pub fn format_report(r: &BenchReport) -> String {
     let m = &r.machine;
     let _ = writeln!(
         out,
-        "penumbra {} ({}) on {} cores, {}; {}x{}, {} threads, median of {} frames after {} warm-up",
+        "penumbra {} ({}) on {} cores, {} ({}); {}x{}, {} threads, median of {} frames after {} warm-up",
         r.penumbra_version,
         short(&r.git_revision),
         m.cores,
         m.cpu_model,
+        m.isa,
         r.settings.width,
         r.settings.height,
         r.settings.threads,

@@ -7,9 +7,9 @@
 //! are).
 //!
 //! Every operation is a fixed loop over the lanes, inlined always, which
-//! LLVM turns into vector instructions (one AVX2 instruction in the
-//! x86-64-v3 and v4 builds `make` chooses, two SSE2 ones otherwise): no
-//! intrinsics, all safe Rust. Four `f64` lanes, not eight: eight `f64` (two
+//! LLVM turns into vector instructions (one AVX2 instruction at the AVX2
+//! and AVX-512 levels `isa` picks at run time, two SSE2 ones at baseline):
+//! no intrinsics, all safe Rust. Four `f64` lanes, not eight: eight `f64` (two
 //! registers per value) ran 1.26x slower per evaluation (register spills;
 //! criterion `unshadowed_batch/quad`, docs/performance.md). Comparisons give a mask of
 //! all-ones / all-zeros bit patterns, and a select picks per lane from that
@@ -209,19 +209,12 @@ impl<T: Elem, const L: usize> Lanes<T, L> {
         Lanes(each(|l| f(self.0[l], o.0[l])))
     }
 
-    /// `self * b + c`: one fused instruction where the target has FMA;
-    /// a multiply and an add otherwise (`mul_add` would be a library
-    /// call per lane there).
+    /// `self * b + c`, rounded once: one fused instruction with FMA (the
+    /// AVX2 and AVX-512 levels of `isa`), a library call per lane at
+    /// baseline, the same value on every level.
     #[inline(always)]
     pub fn mul_add(self, b: Self, c: Self) -> Self {
-        #[cfg(target_feature = "fma")]
-        {
-            Lanes(each(|l| self.0[l].mul_add(b.0[l], c.0[l])))
-        }
-        #[cfg(not(target_feature = "fma"))]
-        {
-            self * b + c
-        }
+        Lanes(each(|l| self.0[l].mul_add(b.0[l], c.0[l])))
     }
 
     #[inline(always)]

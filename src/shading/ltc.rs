@@ -299,7 +299,7 @@ impl PackedLtc {
     /// `lookup_packed` of four pixels (lane `l` = pixel `l`), the cell
     /// coordinates computed across the lanes: the same cells bit for bit
     /// for finite inputs (a test checks it; a NaN reads cell (0, 0) here).
-    #[inline]
+    #[inline(always)]
     pub fn lookup_lanes(&self, roughness: Vec4, cos_view: Vec4) -> [[Vec4; 4]; 4] {
         let n = Vec4::splat((self.size - 1) as f32);
         let x = roughness.clamp(Vec4::ZERO, Vec4::ONE) * n;
@@ -338,6 +338,7 @@ impl PackedLtc {
 }
 
 /// A cell as `PackedLtc::lookup_packed` gives it.
+#[inline(always)]
 pub fn packed_cell(c: &LtcCell) -> [Vec4; 4] {
     let mut a = [0.0f32; 16];
     a[..FIELDS].copy_from_slice(&c.to_array());

@@ -35,6 +35,7 @@ use super::lanes::{Mask, Vec3Lanes, Wide, Wide3, Wide8, add3, cross, dot, scale3
 use super::ltc::{CellLanes, LtcCell};
 use super::polygon::MAX_VERTICES;
 use super::u_batch::ltc_map;
+use crate::isa::{self, Kernel};
 use glam::{DVec3, Vec3, Vec4};
 use std::f32::consts::{FRAC_PI_2, PI};
 
@@ -379,33 +380,46 @@ pub fn lobe_factors_lanes<const N: usize>(
     share_b: Wide,
     stakes: &Stakes,
 ) -> (Wide, Wide) {
-    let o: [Wide3; N] = std::array::from_fn(|i| unit(&ltc_map(&k.fwd, &u[i])));
+    // Plain loops, no closures: a closure is compiled out of line at
+    // baseline, whatever instruction set its caller runs (`isa`).
+    let mut o = [[Wide::ZERO; 3]; N];
     let mut centre = [Wide::ZERO; 3];
-    for (i, v) in o.iter().enumerate() {
-        let v = match real {
-            Some(real) => v.map(|x| real[i].select(x, Wide::ZERO)),
-            None => *v,
-        };
+    for i in 0..N {
+        o[i] = unit(&ltc_map(&k.fwd, &u[i]));
+        let mut v = o[i];
+        if let Some(real) = real {
+            for x in &mut v {
+                *x = real[i].select(*x, Wide::ZERO);
+            }
+        }
         centre = add3(&centre, &v);
     }
     let c = scale3(
         &centre,
         dot(&centre, &centre).max(Wide::splat(1e-30)).rsqrt_approx(),
     );
-    let fan = |i: usize| -> Tri { [c, o[i], o[if i + 1 == N { 0 } else { i + 1 }]] };
+    let mut fan = [[[Wide::ZERO; 3]; 3]; N];
+    for i in 0..N {
+        fan[i] = [c, o[i], o[if i + 1 == N { 0 } else { i + 1 }]];
+    }
     let mut sums = [Wide8::ZERO; 4];
     for pair in 0..N.div_ceil(2) {
-        let second = (2 * pair + 1 < N).then(|| tri_node(&fan(2 * pair + 1)));
-        node_pair(k, tri_node(&fan(2 * pair)), second, &mut sums);
+        let second = if 2 * pair + 1 < N {
+            Some(tri_node(&fan[2 * pair + 1]))
+        } else {
+            None
+        };
+        node_pair(k, tri_node(&fan[2 * pair]), second, &mut sums);
     }
-    let coarse = shaped(sums).map(Wide8::halves_sum);
+    let coarse = halves(shaped(sums));
     let ltc = (share_a * k.maga, share_b * k.magb);
     let t1 = refine_weight(&coarse, ltc, stakes);
     let sums = if t1.gt(Wide::ZERO).any() {
-        let fine = refined_sums::<N, 1>(k, &fan);
+        let fine = isa::run(Refined::<N, 1> { k, fan: &fan });
         let t2 = settle_weight(&coarse, &fine, ltc, stakes);
         let fine = if t2.gt(Wide::ZERO).any() {
-            let finer = extrapolated(&coarse, &fine, &refined_sums::<N, 2>(k, &fan));
+            let finer = isa::run(Refined::<N, 2> { k, fan: &fan });
+            let finer = extrapolated(&coarse, &fine, &finer);
             blend(&fine, &finer, t2)
         } else {
             fine
@@ -438,15 +452,18 @@ const REFINE_AT: f64 = 0.02;
 /// is checked at the finer level before it is applied.
 #[inline(always)]
 fn refine_weight(sums: &[Wide; 4], (ltc_a, ltc_b): (Wide, Wide), s: &Stakes) -> Wide {
-    let unsure = |qf: Wide, qg: Wide, ltc: Wide| {
-        let m = (qg / ltc - Wide::ONE).abs() + (qf / qg - Wide::ONE).abs();
-        ltc.gt(Wide::ZERO).and(m.finite()).select(m, Wide::ZERO)
-    };
     trust_next(
-        unsure(sums[0], sums[2], ltc_a),
-        unsure(sums[1], sums[3], ltc_b),
+        unsure_coarse(sums[0], sums[2], ltc_a),
+        unsure_coarse(sums[1], sums[3], ltc_b),
         s,
     )
+}
+
+/// One lobe's doubt for `refine_weight`.
+#[inline(always)]
+fn unsure_coarse(qf: Wide, qg: Wide, ltc: Wide) -> Wide {
+    let m = (qg / ltc - Wide::ONE).abs() + (qf / qg - Wide::ONE).abs();
+    ltc.gt(Wide::ZERO).and(m.finite()).select(m, Wide::ZERO)
 }
 
 /// 0 while the lobes' doubts `unsure_a`, `unsure_b` weigh under `REFINE_AT`
@@ -471,12 +488,35 @@ fn settle_weight(
     (ltc_a, ltc_b): (Wide, Wide),
     s: &Stakes,
 ) -> Wide {
-    let unsure = |lobe: usize, ltc: Wide| {
-        let rho = |x: &[Wide; 4]| x[lobe] / x[lobe + 2];
-        let m = (fine[lobe + 2] / ltc - Wide::ONE).abs() + (rho(fine) - rho(coarse)).abs();
-        ltc.gt(Wide::ZERO).and(m.finite()).select(m, Wide::ZERO)
-    };
-    trust_next(unsure(0, ltc_a), unsure(1, ltc_b), s)
+    trust_next(
+        unsure_settled(coarse, fine, 0, ltc_a),
+        unsure_settled(coarse, fine, 1, ltc_b),
+        s,
+    )
+}
+
+/// One lobe's doubt for `settle_weight`.
+#[inline(always)]
+fn unsure_settled(coarse: &[Wide; 4], fine: &[Wide; 4], lobe: usize, ltc: Wide) -> Wide {
+    let m =
+        (fine[lobe + 2] / ltc - Wide::ONE).abs() + (ratio(fine, lobe) - ratio(coarse, lobe)).abs();
+    ltc.gt(Wide::ZERO).and(m.finite()).select(m, Wide::ZERO)
+}
+
+/// `Q[f] / Q[ltc]` of `lobe` in `sums`.
+#[inline(always)]
+fn ratio(sums: &[Wide; 4], lobe: usize) -> Wide {
+    sums[lobe] / sums[lobe + 2]
+}
+
+/// Each sum's two halves (lanes 0-3 and 4-7) added.
+#[inline(always)]
+fn halves(sums: [Wide8; 4]) -> [Wide; 4] {
+    let mut out = [Wide::ZERO; 4];
+    for i in 0..4 {
+        out[i] = sums[i].halves_sum();
+    }
+    out
 }
 
 /// Largest ratio of successive changes of `Q[f] / Q[ltc]` over the levels
@@ -492,8 +532,7 @@ const SETTLING: f64 = 0.6;
 fn extrapolated(coarse: &[Wide; 4], fine: &[Wide; 4], finer: &[Wide; 4]) -> [Wide; 4] {
     let mut out = *finer;
     for lobe in 0..2 {
-        let rho = |s: &[Wide; 4]| s[lobe] / s[lobe + 2];
-        let (r0, r1, r2) = (rho(coarse), rho(fine), rho(finer));
+        let (r0, r1, r2) = (ratio(coarse, lobe), ratio(fine, lobe), ratio(finer, lobe));
         let (d1, d2) = (r1 - r0, r2 - r1);
         let q = d2 / d1;
         let settles = q.gt(Wide::ZERO).and(q.lt(Wide::splat(SETTLING)));
@@ -510,24 +549,41 @@ fn extrapolated(coarse: &[Wide; 4], fine: &[Wide; 4], finer: &[Wide; 4]) -> [Wid
 /// `a + t (b - a)`, per sum.
 #[inline(always)]
 fn blend(a: &[Wide; 4], b: &[Wide; 4], t: Wide) -> [Wide; 4] {
-    std::array::from_fn(|i| t.mul_add(b[i] - a[i], a[i]))
+    let mut out = [Wide::ZERO; 4];
+    for i in 0..4 {
+        out[i] = t.mul_add(b[i] - a[i], a[i]);
+    }
+    out
 }
 
 /// The cubature sums with every fan triangle split into `4^LEVEL` pieces
-/// (midpoints of the edges, on the sphere), a node per piece.
-#[inline(never)]
+/// (midpoints of the edges, on the sphere), a node per piece. Kept out of
+/// line, as a `Kernel` of its own (`isa`).
+struct Refined<'a, const N: usize, const LEVEL: u32> {
+    k: &'a CorrectionLanes,
+    fan: &'a [Tri; N],
+}
+
+impl<const N: usize, const LEVEL: u32> Kernel for Refined<'_, N, LEVEL> {
+    type Out = [Wide; 4];
+    #[inline(always)]
+    fn run(self) -> [Wide; 4] {
+        refined_sums::<N, LEVEL>(self.k, self.fan)
+    }
+}
+
+#[inline(always)]
 fn refined_sums<const N: usize, const LEVEL: u32>(
     k: &CorrectionLanes,
-    fan: &impl Fn(usize) -> Tri,
+    fan: &[Tri; N],
 ) -> [Wide; 4] {
     let mut sums = [Wide8::ZERO; 4];
-    for i in 0..N {
-        let t = fan(i);
+    for t in fan {
         // A fan triangle degenerate in every lane (a padding slot) adds 0.
-        if !tri_node(&t).0.gt(Wide::ZERO).any() {
+        if !tri_node(t).0.gt(Wide::ZERO).any() {
             continue;
         }
-        let pieces = split(&t);
+        let pieces = split(t);
         if LEVEL == 1 {
             split_pair(k, &pieces, &mut sums);
         } else {
@@ -536,7 +592,7 @@ fn refined_sums<const N: usize, const LEVEL: u32>(
             }
         }
     }
-    shaped(sums).map(Wide8::halves_sum)
+    halves(shaped(sums))
 }
 
 /// The four pieces' nodes into `sums`, two at a time.
@@ -550,8 +606,9 @@ fn split_pair(k: &CorrectionLanes, pieces: &[Tri; 4], sums: &mut [Wide8; 4]) {
 /// at the edges' midpoints.
 #[inline(always)]
 fn split(t: &Tri) -> [Tri; 4] {
-    let mid = |a: &Wide3, b: &Wide3| unit(&add3(a, b));
-    let (ab, bc, ca) = (mid(&t[0], &t[1]), mid(&t[1], &t[2]), mid(&t[2], &t[0]));
+    let ab = unit(&add3(&t[0], &t[1]));
+    let bc = unit(&add3(&t[1], &t[2]));
+    let ca = unit(&add3(&t[2], &t[0]));
     [[t[0], ab, ca], [ab, t[1], bc], [ca, bc, t[2]], [ab, bc, ca]]
 }
 
@@ -614,24 +671,17 @@ fn node_pair(
 }
 
 /// Only shapes the code of the node loop, on the 8-lane inputs and the
-/// sums. Without AVX-512, `std::hint::black_box`: LLVM otherwise grows its
-/// vectors from the four-lane ends (the `f64` inputs, the per-pixel sums)
-/// and runs the whole node in two 4-wide halves (296 against 178
-/// instructions per evaluation, `u_profile` under callgrind; docs/performance.md).
-/// With AVX-512 (the shipped `x86-64-v4` build), whose 32 registers hold
-/// either shape, the values pass as they are: the stores and reloads that
-/// `black_box` forces cost more there than the halves (`u_profile 40`,
-/// min of 7 alternated runs: 78.8 against 76.5 ns per evaluation; docs/performance.md).
+/// sums, by `std::hint::black_box`: LLVM otherwise grows its vectors from
+/// the four-lane ends (the `f64` inputs, the per-pixel sums) and runs the
+/// whole node in two 4-wide halves with AVX2 (296 against 178 instructions
+/// per evaluation, `u_profile` under callgrind; docs/performance.md). With
+/// AVX-512, whose 32 registers hold either shape, the halves cost less than
+/// the stores and reloads `black_box` forces (`u_profile 40`, min of 7
+/// alternated runs: 76.5 against 78.8 ns per evaluation), but the level is
+/// chosen at run time (`isa`) and the code is the same at every level.
 #[inline(always)]
 fn shaped<T>(x: T) -> T {
-    #[cfg(target_feature = "avx512f")]
-    {
-        x
-    }
-    #[cfg(not(target_feature = "avx512f"))]
-    {
-        std::hint::black_box(x)
-    }
+    std::hint::black_box(x)
 }
 
 /// `factor` per lane.

@@ -46,6 +46,7 @@ use super::ltc_correction::{CorrectionLanes, Stakes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
 use super::unshadowed::{ShadingLight, SurfacePoint, unshadowed_lobes_among};
 use crate::color::luminance;
+use crate::isa::{self, Kernel};
 use crate::scene::Light;
 use glam::{BVec4A, DVec3, Vec3, Vec4};
 
@@ -145,6 +146,11 @@ impl PixelBatch {
     /// gets its pixel's frame, cell and constants bit for bit; converted to
     /// `f64` lanes once at the end.
     pub fn new(points: &[Option<SurfacePoint>]) -> PixelBatch {
+        isa::run(NewBatch(points))
+    }
+
+    #[inline(always)]
+    fn setup(points: &[Option<SurfacePoint>]) -> PixelBatch {
         const { assert!(LANES == 4, "the setup runs on Vec4 lanes") };
         // Read in place (each field gathered once across the lanes); the
         // points themselves are copied once, into the batch.
@@ -233,6 +239,17 @@ impl PixelBatch {
     /// The shading point of lane `l`, if any.
     pub fn point(&self, l: usize) -> Option<&SurfacePoint> {
         self.active.lane(l).then_some(&self.sp[l])
+    }
+}
+
+/// `PixelBatch::new` as a `Kernel` (`isa`).
+struct NewBatch<'a>(&'a [Option<SurfacePoint>]);
+
+impl Kernel for NewBatch<'_> {
+    type Out = PixelBatch;
+    #[inline(always)]
+    fn run(self) -> PixelBatch {
+        PixelBatch::setup(self.0)
     }
 }
 
@@ -329,13 +346,39 @@ pub struct LaneCounts {
 /// (diffuse, specular) lobes of `light` for every lane of `batch`, as
 /// `unshadowed_lobes_prepared` gives them (zero for inactive lanes).
 pub fn lobes_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) -> LaneCounts {
-    lobes_of(batch, light, true, out)
+    isa::run(Lobes {
+        batch,
+        light,
+        specular: true,
+        out,
+    })
 }
 
 /// `lobes_batch` without the GGX lobe (its specular lobes are zero), for
 /// a light whose GGX share is known to be negligible.
 pub fn diffuse_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) -> LaneCounts {
-    lobes_of(batch, light, false, out)
+    isa::run(Lobes {
+        batch,
+        light,
+        specular: false,
+        out,
+    })
+}
+
+/// `lobes_of` as a `Kernel` (`isa`).
+struct Lobes<'a> {
+    batch: &'a PixelBatch,
+    light: &'a BatchLight,
+    specular: bool,
+    out: &'a mut LaneLobes,
+}
+
+impl Kernel for Lobes<'_> {
+    type Out = LaneCounts;
+    #[inline(always)]
+    fn run(self) -> LaneCounts {
+        lobes_of(self.batch, self.light, self.specular, self.out)
+    }
 }
 
 #[inline(always)]
@@ -524,13 +567,44 @@ fn lambert_sum<const N: usize>(
     e: &[Wide3; N],
     live: Mask,
 ) -> (Wide, Wide, [Wide; N], [Wide3; N]) {
-    let len: [Wide; N] = std::array::from_fn(|i| length(&q[i]));
-    let inv: [Wide; N] = std::array::from_fn(|i| Wide::ONE / len[i]);
+    let mut len = [Wide::ZERO; N];
+    let mut inv = [Wide::ZERO; N];
+    for i in 0..N {
+        len[i] = length(&q[i]);
+        inv[i] = Wide::ONE / len[i];
+    }
     let edges = Unclipped { q, e, inv: &inv };
     let (sum, bound) = sum_terms(&edges, live);
-    let u: [Wide3; N] =
-        std::array::from_fn(|i| [q[i][0] * inv[i], q[i][1] * inv[i], q[i][2] * inv[i]]);
+    let mut u = [[Wide::ZERO; 3]; N];
+    for i in 0..N {
+        u[i] = [q[i][0] * inv[i], q[i][1] * inv[i], q[i][2] * inv[i]];
+    }
     (sum, bound, len, u)
+}
+
+/// The mean of three channels.
+#[inline(always)]
+fn mean3(v: &[Wide; 3]) -> Wide {
+    (v[0] + v[1] + v[2]) * Wide::splat(1.0 / 3.0)
+}
+
+/// `ltc_sum` as a `Kernel` (`isa`): kept out of line, as LLVM keeps it
+/// where it chooses, so that it runs the batch's instruction set.
+struct LtcSum<'a, const N: usize> {
+    m: &'a [Wide; 4],
+    norm: Wide,
+    q: &'a [Wide3; N],
+    e: &'a [Wide3; N],
+    len_l: &'a [Wide; N],
+    live: Mask,
+}
+
+impl<const N: usize> Kernel for LtcSum<'_, N> {
+    type Out = (Wide, Wide, Wide);
+    #[inline(always)]
+    fn run(self) -> (Wide, Wide, Wide) {
+        ltc_sum(self.m, self.norm, self.q, self.e, self.len_l, self.live)
+    }
 }
 
 /// Contour sum of one LTC image (`m` applied to the local polygon), clipped
@@ -545,10 +619,16 @@ fn ltc_sum<const N: usize>(
     len_l: &[Wide; N],
     live: Mask,
 ) -> (Wide, Wide, Wide) {
-    let qi: [Wide3; N] = std::array::from_fn(|i| ltc_map(m, &q[i]));
-    let ei: [Wide3; N] = std::array::from_fn(|i| ltc_map(m, &e[i]));
-    let len: [Wide; N] = std::array::from_fn(|i| length(&qi[i]));
-    let inv: [Wide; N] = std::array::from_fn(|i| Wide::ONE / len[i]);
+    let mut qi = [[Wide::ZERO; 3]; N];
+    let mut ei = [[Wide::ZERO; 3]; N];
+    let mut len = [Wide::ZERO; N];
+    let mut inv = [Wide::ZERO; N];
+    for i in 0..N {
+        qi[i] = ltc_map(m, &q[i]);
+        ei[i] = ltc_map(m, &e[i]);
+        len[i] = length(&qi[i]);
+        inv[i] = Wide::ONE / len[i];
+    }
     let mut gain = Wide::ZERO;
     let mut clips = Mask::NONE;
     for i in 0..N {
@@ -828,9 +908,16 @@ fn lobes_n<const N: usize, const K: usize>(
     let straddle = fast.and(min_z.lt(Wide::ZERO));
 
     if straddle.any() {
-        hard = hard.or(shade_clipped::<N, K>(
-            b, light, specular, &q, &e, straddle, fast, out,
-        ));
+        hard = hard.or(isa::run(ShadeClipped::<N, K> {
+            b,
+            light,
+            specular,
+            q: &q,
+            e: &e,
+            straddle,
+            fast,
+            out,
+        }));
     } else if fast.any() {
         hard = hard.or(shade(b, light, specular, &q, &e, None, fast, out));
     }
@@ -853,9 +940,39 @@ fn lobes_n<const N: usize, const K: usize>(
 
 /// `shade` when some lane's light straddles its horizon (`straddle`): the
 /// batch integrates every lane's polygon in `K = N + 1` slots, those
-/// lanes' clipped. Kept out of line: the common batch, with no clip, runs
-/// `shade` inlined in `lobes_n` and is not slowed by this copy of it.
-#[inline(never)]
+/// lanes' clipped. Kept out of line, as a `Kernel` of its own (`isa`): the
+/// common batch, with no clip, runs `shade` inlined in `lobes_n` and is not
+/// slowed by this copy of it.
+struct ShadeClipped<'a, const N: usize, const K: usize> {
+    b: &'a PixelBatch,
+    light: &'a BatchLight,
+    specular: bool,
+    q: &'a [Wide3; N],
+    e: &'a [Wide3; N],
+    straddle: Mask,
+    fast: Mask,
+    out: &'a mut LaneLobes,
+}
+
+impl<const N: usize, const K: usize> Kernel for ShadeClipped<'_, N, K> {
+    type Out = Mask;
+    #[inline(always)]
+    fn run(self) -> Mask {
+        let ShadeClipped {
+            b,
+            light,
+            specular,
+            q,
+            e,
+            straddle,
+            fast,
+            out,
+        } = self;
+        shade_clipped::<N, K>(b, light, specular, q, e, straddle, fast, out)
+    }
+}
+
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn shade_clipped<const N: usize, const K: usize>(
     b: &PixelBatch,
@@ -901,12 +1018,14 @@ fn shade<const K: usize>(
     let eps = Wide::splat(ERR_ULPS * BatchFloat::EPSILON * 0.5 + POLY_ERR_F64);
     let (sum_l, bnd_l, len_l, u) = lambert_sum(q, e, fast);
     // A contour sum's error: `eps` of its bound, plus the clip's slack.
-    let err = |bound: Wide| match clipped {
-        Some((_, slack)) => eps.mul_add(bound, slack),
-        None => eps * bound,
+    // (Plain code, no closures here: a closure is compiled out of line at
+    // baseline, whatever instruction set its caller runs; `isa`.)
+    let (real, slack) = match clipped {
+        Some((real, slack)) => (Some(real), slack),
+        None => (None, Wide::ZERO),
     };
     let ff = form_factor(sum_l);
-    let err_l = err(bnd_l) * Wide::splat(0.5 / std::f64::consts::PI);
+    let err_l = eps.mul_add(bnd_l, slack) * Wide::splat(0.5 / std::f64::consts::PI);
     let mut spec = [Wide::ZERO; 3];
     let mut spec_err = [Wide::ZERO; 3];
     let lobe = if specular {
@@ -915,32 +1034,44 @@ fn shade<const K: usize>(
         Mask::NONE
     };
     if lobe.any() {
-        let lobe_sum = |m, norm, want: Mask| {
-            if want.any() {
-                ltc_sum(m, norm, q, e, &len_l, want)
-            } else {
-                (Wide::ZERO, Wide::ZERO, Wide::ZERO)
-            }
+        let (sum_a, bnd_a, gain_a) = isa::run(LtcSum {
+            m: &b.ma,
+            norm: b.norm_a,
+            q,
+            e,
+            len_l: &len_l,
+            live: lobe,
+        });
+        let want_b = lobe.and(b.want_b);
+        let (sum_b, bnd_b, gain_b) = if want_b.any() {
+            isa::run(LtcSum {
+                m: &b.mb,
+                norm: b.norm_b,
+                q,
+                e,
+                len_l: &len_l,
+                live: want_b,
+            })
+        } else {
+            (Wide::ZERO, Wide::ZERO, Wide::ZERO)
         };
-        let (sum_a, bnd_a, gain_a) = lobe_sum(&b.ma, b.norm_a, lobe);
-        let (sum_b, bnd_b, gain_b) = lobe_sum(&b.mb, b.norm_b, lobe.and(b.want_b));
         let share_a = b.wa.mul_add(form_factor(sum_a), b.mix * ff);
         let share_b = b.wb.mul_add(form_factor(sum_b), b.fmix * ff);
-        let third = Wide::splat(1.0 / 3.0);
-        let mean = |v: [Wide; 3]| (v[0] + v[1] + v[2]) * third;
+        let one_less = [
+            Wide::ONE - b.ks[0],
+            Wide::ONE - b.ks[1],
+            Wide::ONE - b.ks[2],
+        ];
         let stakes = Stakes {
-            a: b.lobe.select(b.mag * share_a * mean(b.ks), Wide::ZERO),
-            b: b.want_b.select(
-                b.fres * share_b * mean(b.ks.map(|k| Wide::ONE - k)),
-                Wide::ZERO,
-            ),
-            diffuse: mean(b.kd) * ff,
+            a: b.lobe.select(b.mag * share_a * mean3(&b.ks), Wide::ZERO),
+            b: b.want_b
+                .select(b.fres * share_b * mean3(&one_less), Wide::ZERO),
+            diffuse: mean3(&b.kd) * ff,
             others: b.others / Wide::splat(BatchFloat::from(luminance(light.radiance)).max(1e-30)),
         };
-        let real = clipped.map(|(real, _)| real);
         let (ka, kb) = lobe_factors_lanes(&u, real, &b.corr, share_a, share_b, &stakes);
-        let err_a = err(bnd_a) * gain_a * Wide::splat(0.5 / std::f64::consts::PI);
-        let err_b = err(bnd_b) * gain_b * Wide::splat(0.5 / std::f64::consts::PI);
+        let err_a = eps.mul_add(bnd_a, slack) * gain_a * Wide::splat(0.5 / std::f64::consts::PI);
+        let err_b = eps.mul_add(bnd_b, slack) * gain_b * Wide::splat(0.5 / std::f64::consts::PI);
         let a = b.lobe.select(b.mag * share_a * ka, Wide::ZERO);
         let bb = b.want_b.select(b.fres * share_b * kb, Wide::ZERO);
         let a_err = b
