@@ -17,6 +17,7 @@
 use super::lanes::Lanes;
 use super::light_bound::{LTC_FIT_MARGIN, LightExtent};
 use super::polygon::{THETA_SIN_POLY, theta_over_sin_lanes};
+use crate::isa::{self, Kernel};
 use glam::Vec3;
 
 /// Points per vector.
@@ -90,14 +91,19 @@ impl WidePoints {
     }
 }
 
+#[inline(always)]
 fn lanes(c: &[f32], g: usize) -> W {
-    W::from_fn(|l| c[g * WIDE + l])
+    let mut v = W::ZERO;
+    v.0.copy_from_slice(&c[g * WIDE..(g + 1) * WIDE]);
+    v
 }
 
+#[inline(always)]
 fn lanes3(v: &[Vec<f32>; 3], g: usize) -> [W; 3] {
     [lanes(&v[0], g), lanes(&v[1], g), lanes(&v[2], g)]
 }
 
+#[inline(always)]
 fn dot(a: &[W; 3], b: &[W; 3]) -> W {
     a[0].mul_add(b[0], a[1].mul_add(b[1], a[2] * b[2]))
 }
@@ -114,13 +120,41 @@ pub fn form_factor_rounding(edges: usize, near: f32, scale: f32) -> f32 {
 /// path's polynomial, evaluated in `f32`.
 #[inline(always)]
 fn theta_over_sin(x: W) -> W {
-    theta_over_sin_lanes(&THETA_SIN_POLY.map(W::splat), x)
+    let mut c = [W::ZERO; 11];
+    for (c, &k) in c.iter_mut().zip(&THETA_SIN_POLY) {
+        *c = W::splat(k);
+    }
+    theta_over_sin_lanes(&c, x)
 }
 
 /// The form factor `1/pi ∫ cos dω` of the polygon `vertices` (3 to 8, any
 /// winding) at every point of `points` into `out[..points.len()]`, for
 /// the far case of the module comment (the caller's to check).
 pub fn form_factors(points: &WidePoints, vertices: &[Vec3], out: &mut [f32]) {
+    isa::run(FormFactors {
+        points,
+        vertices,
+        out,
+    })
+}
+
+/// `form_factors` as a `Kernel` (`isa`).
+struct FormFactors<'a> {
+    points: &'a WidePoints,
+    vertices: &'a [Vec3],
+    out: &'a mut [f32],
+}
+
+impl Kernel for FormFactors<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        form_factors_of(self.points, self.vertices, self.out)
+    }
+}
+
+#[inline(always)]
+fn form_factors_of(points: &WidePoints, vertices: &[Vec3], out: &mut [f32]) {
     let nv = vertices.len().min(8);
     for g in 0..points.len.div_ceil(WIDE) {
         let p = lanes3(&points.p, g);
@@ -152,6 +186,7 @@ pub fn form_factors(points: &WidePoints, vertices: &[Vec3], out: &mut [f32]) {
     }
 }
 
+#[inline(always)]
 fn store(v: W, g: usize, len: usize, out: &mut [f32]) {
     let lanes = v.to_f32();
     let start = g * WIDE;
@@ -184,6 +219,7 @@ fn minus(a: (W, W), b: (W, W)) -> (W, W) {
     )
 }
 
+#[inline(always)]
 fn angle_of_cos(cos: W) -> (W, W) {
     let c = cos.clamp(-1.0, 1.0);
     (c, (W::ONE - c * c).max(W::ZERO).sqrt())
@@ -197,6 +233,26 @@ fn angle_of_cos(cos: W) -> (W, W) {
 /// point's shading horizon (see `light_bound`) or the point lies within the
 /// light's bounding sphere.
 pub fn ggx_bounds(points: &WidePoints, light: &LightExtent, out: &mut [f32]) {
+    isa::run(GgxBounds { points, light, out })
+}
+
+/// `ggx_bounds` as a `Kernel` (`isa`).
+struct GgxBounds<'a> {
+    points: &'a WidePoints,
+    light: &'a LightExtent,
+    out: &'a mut [f32],
+}
+
+impl Kernel for GgxBounds<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        ggx_bounds_of(self.points, self.light, self.out)
+    }
+}
+
+#[inline(always)]
+fn ggx_bounds_of(points: &WidePoints, light: &LightExtent, out: &mut [f32]) {
     let c = light.centre;
     let (normal, r) = (light.normal, light.radius);
     for g in 0..points.len.div_ceil(WIDE) {

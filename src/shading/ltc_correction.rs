@@ -146,14 +146,10 @@ pub fn lobe_factors(
     stakes: [f32; 4],
 ) -> (f32, f32) {
     let n = poly.len().min(MAX_VERTICES);
-    let k = || {
-        CorrectionLanes::new(
-            &CellLanes::splat(cell),
-            [Vec4::splat(wo.x), Vec4::splat(wo.z)],
-            Vec4::splat(alpha),
-        )
-    };
-    let s = Pixel {
+    let p = Pixel {
+        cell,
+        wo,
+        alpha,
         share_a,
         share_b,
         stakes: Stakes {
@@ -165,36 +161,58 @@ pub fn lobe_factors(
     };
     match n {
         0..=2 => (1.0, 1.0),
-        3 => one_pixel::<3>(poly, &k(), &s),
-        4 => one_pixel::<4>(poly, &k(), &s),
-        5 => one_pixel::<5>(poly, &k(), &s),
-        6 => one_pixel::<6>(poly, &k(), &s),
-        7 => one_pixel::<7>(poly, &k(), &s),
-        8 => one_pixel::<8>(poly, &k(), &s),
-        9 => one_pixel::<9>(poly, &k(), &s),
-        _ => one_pixel::<MAX_VERTICES>(poly, &k(), &s),
+        3 => isa::run(OnePixel::<3> { poly, p }),
+        4 => isa::run(OnePixel::<4> { poly, p }),
+        5 => isa::run(OnePixel::<5> { poly, p }),
+        6 => isa::run(OnePixel::<6> { poly, p }),
+        7 => isa::run(OnePixel::<7> { poly, p }),
+        8 => isa::run(OnePixel::<8> { poly, p }),
+        9 => isa::run(OnePixel::<9> { poly, p }),
+        _ => isa::run(OnePixel::<MAX_VERTICES> { poly, p }),
     }
 }
 
 /// One pixel's inputs to `lobe_factors` beyond its polygon.
-struct Pixel {
+struct Pixel<'a> {
+    cell: &'a LtcCell,
+    wo: Vec3,
+    alpha: f32,
     share_a: f32,
     share_b: f32,
     stakes: Stakes,
 }
 
-/// `lobe_factors` of an `N`-gon, in lane 0.
-fn one_pixel<const N: usize>(poly: &[DVec3], k: &CorrectionLanes, p: &Pixel) -> (f32, f32) {
-    let u: [Wide3; N] = std::array::from_fn(|i| {
+/// `lobe_factors` of an `N`-gon, in lane 0, as a `Kernel` (`isa`).
+struct OnePixel<'a, const N: usize> {
+    poly: &'a [DVec3],
+    p: Pixel<'a>,
+}
+
+impl<const N: usize> Kernel for OnePixel<'_, N> {
+    type Out = (f32, f32);
+    #[inline(always)]
+    fn run(self) -> (f32, f32) {
+        one_pixel::<N>(self.poly, &self.p)
+    }
+}
+
+#[inline(always)]
+fn one_pixel<const N: usize>(poly: &[DVec3], p: &Pixel) -> (f32, f32) {
+    let k = CorrectionLanes::new(
+        &CellLanes::splat(p.cell),
+        [Vec4::splat(p.wo.x), Vec4::splat(p.wo.z)],
+        Vec4::splat(p.alpha),
+    );
+    let mut u = [[Wide::ZERO; 3]; N];
+    for (u, v) in u.iter_mut().zip(poly) {
         // As the batch's `inv_len`: a vertex at the point stays zero.
-        let v = poly[i];
-        let v = v / v.length_squared().max(f64::MIN_POSITIVE).sqrt();
-        [Wide::splat(v.x), Wide::splat(v.y), Wide::splat(v.z)]
-    });
+        let v = *v / v.length_squared().max(f64::MIN_POSITIVE).sqrt();
+        *u = [Wide::splat(v.x), Wide::splat(v.y), Wide::splat(v.z)];
+    }
     let (a, b) = lobe_factors_lanes(
         &u,
         None,
-        k,
+        &k,
         Wide::splat(p.share_a),
         Wide::splat(p.share_b),
         &p.stakes,
@@ -237,7 +255,7 @@ impl CorrectionLanes {
     /// its x and z) and GGX alpha. In `f32`, across the lanes, in the
     /// order of operations of the scalar formulas (so the same values bit
     /// for bit as one pixel at a time).
-    #[inline]
+    #[inline(always)]
     pub fn new(cells: &CellLanes, [wox, woz]: [Vec4; 2], alpha: Vec4) -> Self {
         // One division for both lobes' `1 / hmass`.
         let inv = Vec4::ONE / (Vec4::splat(PI) * cells.hmass() * cells.fhmass());
