@@ -59,16 +59,22 @@ fn the_hall_has_the_same_bytes_at_every_level() {
     same_bytes_at_every_level("hall-unshadowed", &[hall, "--mode", "unshadowed"]);
 }
 
-#[test]
-fn a_level_that_is_not_one_is_an_error() {
+/// What `render` says on stderr with `PENUMBRA_ISA=value`, which it must
+/// refuse.
+fn refusal(value: &str) -> String {
     let run = penumbra()
-        .env(ENV, "sse9")
+        .env(ENV, value)
         .args(["render", "--out"])
         .arg(temp("isa", "never.png"))
         .output()
         .unwrap();
-    assert!(!run.status.success());
-    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{ENV}={value} was accepted");
+    String::from_utf8_lossy(&run.stderr).into_owned()
+}
+
+#[test]
+fn a_level_that_is_not_one_is_an_error() {
+    let err = refusal("sse9");
     assert!(
         err.contains("PENUMBRA_ISA=sse9") && err.contains("baseline, avx2, avx512"),
         "{err}"
@@ -80,13 +86,6 @@ fn a_level_above_the_cpu_is_an_error() {
     let Some(&above) = Isa::ALL.iter().find(|&&isa| isa > Isa::detected()) else {
         return; // this CPU runs every level
     };
-    let run = penumbra()
-        .env(ENV, above.name())
-        .args(["render", "--out"])
-        .arg(temp("isa", "never.png"))
-        .output()
-        .unwrap();
-    assert!(!run.status.success());
-    let err = String::from_utf8_lossy(&run.stderr);
+    let err = refusal(above.name());
     assert!(err.contains("this CPU runs at most"), "{err}");
 }
