@@ -588,8 +588,8 @@ fn mean3(v: &[Wide; 3]) -> Wide {
     (v[0] + v[1] + v[2]) * Wide::splat(1.0 / 3.0)
 }
 
-/// `ltc_sum` as a `Kernel` (`isa`): kept out of line, as LLVM keeps it
-/// where it chooses, so that it runs the batch's instruction set.
+/// `ltc_sum` as a `Kernel` (`isa`): out of line, where LLVM put it in
+/// `shade` before, and at the batch's instruction set.
 struct LtcSum<'a, const N: usize> {
     m: &'a [Wide; 4],
     norm: Wide,
