@@ -13,7 +13,7 @@
 //! by level, Rust does not contract a multiply and an add into one, and
 //! `mul_add` is fused on every level (a library call at baseline), so
 //! `PENUMBRA_ISA` changes the speed of a frame and not its bytes
-//! (`tests/integration/isa.rs`).
+//! (`tests/integration/cli/isa.rs`).
 
 use multiversion::multiversion;
 use multiversion::target::match_target;

@@ -58,7 +58,7 @@ impl Lobe {
     /// Squared separation of `other`'s mirror direction from this lobe's, in
     /// its widths (scaled by the specular share); 0 where this pixel has no
     /// specular lobe.
-    #[inline]
+    #[inline(always)]
     pub fn separation2(&self, other: &Lobe) -> f32 {
         if self.sharpness > 0.0 {
             (self.dir - other.dir).length_squared() * self.sharpness

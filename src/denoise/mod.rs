@@ -189,7 +189,7 @@ pub use crate::color::luminance;
 
 /// Ratio of luminances in [0, 1]. Where `U_N` carries no light the ratio is
 /// defined as 1 (nothing is known to be blocked), never a division by zero.
-#[inline]
+#[inline(always)]
 pub fn luminance_ratio(sn: Vec3, un: Vec3) -> f32 {
     let lu = luminance(un);
     if lu > 1e-30 && lu.is_finite() {

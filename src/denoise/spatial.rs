@@ -14,6 +14,7 @@
 use super::history::History;
 use super::tiles::{TILE, Tiles};
 use super::{DenoiseSettings, Lobe, luminance, luminance_ratio};
+use crate::isa::{self, Kernel};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -22,7 +23,7 @@ const KERNEL: [f32; 3] = [0.25, 0.5, 0.25];
 
 /// Cheap monotone stand-in for exp(-e): (1 - e/8)^8, exactly 0 from e = 8.
 /// A true exp per tap costs more than the rest of the tap together.
-#[inline]
+#[inline(always)]
 pub fn falloff(e: f32) -> f32 {
     let t = (1.0 - e * 0.125).max(0.0);
     let t2 = t * t;
@@ -175,7 +176,6 @@ impl Ctx<'_> {
     /// computed.
     fn level(&self, level: u8, src: Src, dst: &mut Signals, last: bool) {
         let w = self.inp.width;
-        let tiles = self.inp.tiles;
         (
             dst.un.par_chunks_mut(w),
             dst.sn.par_chunks_mut(w),
@@ -184,33 +184,20 @@ impl Ctx<'_> {
             .into_par_iter()
             .enumerate()
             .for_each(|(y, (du, ds, dr))| {
-                let row = y * w;
-                for tx in 0..tiles.columns() {
-                    if tiles.skipped(tx, y / TILE) {
-                        continue;
-                    }
-                    for x in tx * TILE..(tx * TILE + TILE).min(w) {
-                        let i = row + x;
-                        if self.inp.levels[i] <= level {
-                            du[x] = src.un[i];
-                            ds[x] = src.sn[i];
-                            dr[x] = src.ratio[i];
-                        } else {
-                            let (u, s) = self.tap_sum(level, x, y, src);
-                            du[x] = u;
-                            ds[x] = s;
-                            if !last {
-                                dr[x] = luminance_ratio(s, u);
-                            }
-                        }
-                    }
-                }
+                isa::run(LevelRow {
+                    ctx: self,
+                    level,
+                    src,
+                    y,
+                    dst: (du, ds, dr),
+                    last,
+                })
             });
     }
 
     /// Weighted 3x3 sum at step 2^level around (x, y); one weight per tap for
     /// both signals.
-    #[inline]
+    #[inline(always)]
     fn tap_sum(&self, level: u8, x: usize, y: usize, src: Src) -> (Vec3, Vec3) {
         let inp = self.inp;
         let (w, h) = (inp.width, self.height);
@@ -285,9 +272,58 @@ impl Ctx<'_> {
     }
 }
 
+/// One row of one à-trous level: the level's hot loop, compiled per
+/// instruction-set level.
+struct LevelRow<'a, 'b> {
+    ctx: &'a Ctx<'a>,
+    level: u8,
+    src: Src<'a>,
+    y: usize,
+    dst: (&'b mut [Vec3], &'b mut [Vec3], &'b mut [f32]),
+    last: bool,
+}
+
+impl Kernel for LevelRow<'_, '_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        let LevelRow {
+            ctx,
+            level,
+            src,
+            y,
+            dst: (du, ds, dr),
+            last,
+        } = self;
+        let w = ctx.inp.width;
+        let tiles = ctx.inp.tiles;
+        let row = y * w;
+        for tx in 0..tiles.columns() {
+            if tiles.skipped(tx, y / TILE) {
+                continue;
+            }
+            for x in tx * TILE..(tx * TILE + TILE).min(w) {
+                let i = row + x;
+                if ctx.inp.levels[i] <= level {
+                    du[x] = src.un[i];
+                    ds[x] = src.sn[i];
+                    dr[x] = src.ratio[i];
+                } else {
+                    let (u, s) = ctx.tap_sum(level, x, y, src);
+                    du[x] = u;
+                    ds[x] = s;
+                    if !last {
+                        dr[x] = luminance_ratio(s, u);
+                    }
+                }
+            }
+        }
+    }
+}
+
 impl Ctx<'_> {
     /// Mean ratio over the surface pixels of the 3x3 block around (x, y).
-    #[inline]
+    #[inline(always)]
     fn mean_ratio(&self, x: usize, y: usize, src: Src) -> f32 {
         let (w, h) = (self.inp.width, self.height);
         let (mut sum, mut n) = (0.0f32, 0.0f32);
@@ -309,7 +345,7 @@ impl Ctx<'_> {
 }
 
 /// Luminance of `U_N` over that of `U`, in [0, 1]; 1 where `U` is dark.
-#[inline]
+#[inline(always)]
 fn confidence(un: Vec3, lu: f32) -> f32 {
     if lu > 1e-30 {
         (luminance(un) / lu).clamp(0.0, 1.0)
@@ -319,7 +355,7 @@ fn confidence(un: Vec3, lu: f32) -> f32 {
 }
 
 /// Coordinate of kernel index k (0, 1, 2 = -step, 0, +step), if inside.
-#[inline]
+#[inline(always)]
 fn offset(c: usize, k: usize, step: usize, n: usize) -> Option<usize> {
     match k {
         0 => c.checked_sub(step),
