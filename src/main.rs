@@ -4,7 +4,9 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use penumbra::embree::{self, Device};
 use penumbra::output::{self, Aov};
-use penumbra::render::{Frame, LIGHT_TOLERANCE, Mode, RenderSettings, VisibilityRate, World};
+use penumbra::render::{
+    Frame, LIGHT_TOLERANCE, Mode, RenderSettings, Upscaled, VisibilityRate, World,
+};
 use penumbra::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -131,6 +133,11 @@ struct RenderArgs {
     /// Extra EXR images beside --out: albedo, normal, depth, u, un, sn, ratio.
     #[arg(long, default_value = "")]
     aov: String,
+    /// Render each frame at this fraction of each side of the output and
+    /// upscale it to the output's size, accumulating the jittered frames
+    /// there (a number in (0, 1]; 1 renders at the output's size).
+    #[arg(long, default_value_t = 1.0, value_parser = parse_render_scale, allow_negative_numbers = true)]
+    render_scale: f32,
     /// After the last frame, print every sample pixel X,Y drew in it (light,
     /// strategy, pdfs, weight, visibility) and the frame's values there.
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
@@ -143,6 +150,16 @@ fn parse_tolerance(s: &str) -> std::result::Result<f32, String> {
         Ok(t) if (0.0..=0.5).contains(&t) => Ok(t),
         _ => Err(format!(
             "\"{s}\" is not a light tolerance (a number from 0 to 0.5, e.g. 0.01)"
+        )),
+    }
+}
+
+/// A render scale: a number in (0, 1].
+fn parse_render_scale(s: &str) -> std::result::Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(t) if t > 0.0 && t <= 1.0 => Ok(t),
+        _ => Err(format!(
+            "\"{s}\" is not a render scale (a number above 0 and at most 1, e.g. 0.5)"
         )),
     }
 }
@@ -324,6 +341,13 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     {
         bail!("{}: the directory of --out does not exist", dir.display());
     }
+    let upscaled = a.render_scale < 1.0;
+    if upscaled && (!aovs.is_empty() || a.debug_pixel.is_some()) {
+        bail!(
+            "--aov and --debug-pixel describe the rendered frame, which --render-scale below 1 \
+             makes smaller than the output; render at scale 1 for them"
+        );
+    }
     let per_frame = FramePattern::new(&a.out, a.frames);
     let scene = load_scene(c.scene.as_deref())?;
     let (w, h) = frame_size(&scene, c.width, c.height)?;
@@ -335,21 +359,32 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
     let pool = embree::thread_pool(c.threads)?;
     let settings = c.settings();
-    let mut frame = Frame::new(w, h);
+    let (rw, rh) = penumbra::render::scaled_size(w, h, a.render_scale);
+    let mut frame = Frame::new(rw, rh);
+    let mut target = upscaled.then(|| Upscaled::new(w, h));
+    let write = |path: &Path, frame: &Frame, target: &Option<Upscaled>| match target {
+        Some(o) => {
+            output::write_color(path, w, h, &o.color, c.exposure).map(|()| vec![path.into()])
+        }
+        None => output::write_frame(path, frame, c.exposure, &aovs),
+    };
     let mut last = None;
     let mut written = Vec::new();
     pool.install(|| -> Result<()> {
         for k in 0..a.frames {
             let cam = camera.orbit(a.orbit * k as f32);
-            last = Some(frame.render(&world, &cam, &settings));
+            last = Some(match target.as_mut() {
+                Some(o) => o.render(&mut frame, &world, &cam, &settings),
+                None => frame.render(&world, &cam, &settings),
+            });
             if let Some(p) = &per_frame {
-                written.extend(output::write_frame(&p.path(k), &frame, c.exposure, &aovs)?);
+                written.extend(write(&p.path(k), &frame, &target)?);
             }
         }
         Ok(())
     })?;
     if per_frame.is_none() {
-        written = output::write_frame(&a.out, &frame, c.exposure, &aovs)?;
+        written = write(&a.out, &frame, &target)?;
     }
     if let Some((x, y)) = a.debug_pixel {
         let replay = penumbra::render::replay::replay_pixel(&world, &frame, &settings, x, y)
@@ -357,8 +392,13 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         print!("{}", replay.report(&world));
     }
     if let Some(t) = last {
+        let scaled = if upscaled {
+            format!(" (rendered at {rw}x{rh})")
+        } else {
+            String::new()
+        };
         eprintln!(
-            "{}x{} {} spp={} frames={}: last frame {:.1} ms",
+            "{}x{}{scaled} {} spp={} frames={}: last frame {:.1} ms",
             w,
             h,
             c.mode,

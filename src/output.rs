@@ -162,6 +162,27 @@ pub fn write_png(
         })
 }
 
+/// Writes linear radiance as PNG (tonemapped, with `exposure` in stops) or
+/// EXR, by `path`'s extension.
+pub fn write_color(
+    path: &Path,
+    width: u32,
+    height: u32,
+    color: &[Vec3],
+    exposure: f32,
+) -> Result<(), OutputError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("png") => write_png(path, width, height, color, exposure),
+        Some("exr") => write_exr(path, width, height, color),
+        _ => Err(OutputError::Format {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
 /// Writes the frame's colour to `path` (format from the extension) and each
 /// AOV beside it as EXR. Returns the paths written.
 pub fn write_frame(
@@ -170,18 +191,7 @@ pub fn write_frame(
     exposure: f32,
     aovs: &[Aov],
 ) -> Result<Vec<PathBuf>, OutputError> {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    match ext.as_deref() {
-        Some("png") => write_png(path, frame.width, frame.height, &frame.color, exposure)?,
-        Some("exr") => write_exr(path, frame.width, frame.height, &frame.color)?,
-        _ => {
-            return Err(OutputError::Format {
-                path: path.to_path_buf(),
-            });
-        }
-    }
+    write_color(path, frame.width, frame.height, &frame.color, exposure)?;
     let mut written = vec![path.to_path_buf()];
     for &aov in aovs {
         let p = aov_path(path, aov);

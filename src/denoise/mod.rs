@@ -20,6 +20,8 @@
 //!
 //! After the composite, [`resolve`] averages the finished colour over
 //! jittered frames (TAA); it is a separate stage and never touches `U_N`/`S_N`.
+//! [`upscale`] is the same stage for frames rendered below the output's
+//! size: its history has the output's size.
 //!
 //! Depends only on `glam` and `rayon`; all buffers are allocated on the first
 //! frame (or a resize) and reused afterwards.
@@ -31,6 +33,7 @@ mod resolve;
 mod spatial;
 mod temporal;
 mod tiles;
+mod upscale;
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -40,6 +43,7 @@ pub use lobe::Lobe;
 pub use resolve::{CameraMotion, Resolve, ResolveSettings};
 pub use spatial::falloff;
 pub use tiles::TILE;
+pub use upscale::Upscale;
 
 /// Per-pixel guides the renderer fills each frame (row-major, row 0 on top).
 pub struct GuideBuffers<'a> {

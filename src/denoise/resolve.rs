@@ -230,14 +230,14 @@ impl Resolve {
 }
 
 /// What the resolve knows of the current pixel, in the history's record.
-struct Pixel {
-    meta: Meta,
-    normal: Vec3,
+pub(super) struct Pixel {
+    pub meta: Meta,
+    pub normal: Vec3,
 }
 
 impl Pixel {
     #[inline]
-    fn of(guide: &GuideBuffers, i: usize) -> Pixel {
+    pub(super) fn of(guide: &GuideBuffers, i: usize) -> Pixel {
         let d = guide.depth[i];
         let surface = d > 0.0 && d.is_finite();
         let lu = luminance(guide.u[i]);
@@ -347,7 +347,14 @@ fn reprojected(
 /// the 3x3 neighbourhood of (x, y): history the current frame cannot
 /// explain (a surface that was not there, light that left) is cut back.
 #[inline]
-fn clamp_to_neighbourhood(c: Vec3, now: &[Vec3], w: usize, h: usize, x: usize, y: usize) -> Vec3 {
+pub(super) fn clamp_to_neighbourhood(
+    c: Vec3,
+    now: &[Vec3],
+    w: usize,
+    h: usize,
+    x: usize,
+    y: usize,
+) -> Vec3 {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for ny in y.saturating_sub(1)..(y + 2).min(h) {
         for nx in x.saturating_sub(1)..(x + 2).min(w) {

@@ -9,7 +9,7 @@ use super::history::{History, Meta, decode_normal, encode_normal};
 use super::spatial::Guide;
 use super::tiles::{self, TILE};
 use super::{DenoiseSettings, GuideBuffers, luminance, luminance_ratio};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 /// History reprojected to one pixel.
@@ -246,8 +246,23 @@ pub(super) fn bilinear_footprint(
     x: usize,
     y: usize,
 ) -> Option<[Option<(usize, f32)>; 4]> {
-    let (w, h) = (guide.width as i64, guide.height as i64);
-    let p = guide.prev_pixel[y * guide.width as usize + x] - 0.5;
+    bilinear_taps(
+        guide.prev_pixel[y * guide.width as usize + x],
+        guide.width,
+        guide.height,
+    )
+}
+
+/// The four bilinear taps of continuous pixel position `at` (pixel centres
+/// at +0.5) on a `width` x `height` grid, as in [`bilinear_footprint`].
+#[inline]
+pub(super) fn bilinear_taps(
+    at: Vec2,
+    width: u32,
+    height: u32,
+) -> Option<[Option<(usize, f32)>; 4]> {
+    let (w, h) = (width as i64, height as i64);
+    let p = at - 0.5;
     if !p.is_finite() || p.x.abs() > 1e9 || p.y.abs() > 1e9 {
         return None;
     }

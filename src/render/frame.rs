@@ -16,7 +16,8 @@ use super::shadow::{PacketWidth, ShadowBatch};
 use super::solo::SoloHistory;
 use super::world::World;
 use crate::denoise::{
-    CameraMotion, DenoiseSettings, Denoiser, Resolve, ResolveSettings, TILE, luminance,
+    CameraMotion, DenoiseSettings, Denoiser, GuideBuffers, Resolve, ResolveSettings, TILE,
+    luminance,
 };
 use crate::sampling::sequence::frame_jitter;
 use crate::scene::{Camera, CameraFrame, Light};
@@ -55,6 +56,10 @@ pub struct RenderSettings {
     /// least `1 - light_tolerance` of the sum over every light
     /// (`analytic_u_band`); 0 evaluates every light at every pixel.
     pub light_tolerance: f32,
+    /// The frame is rendered below its output's size and resolved there
+    /// (`render::upscaled`): its camera rays are jittered as under `taa`,
+    /// but its own temporal resolve is left out.
+    pub upscaled: bool,
 }
 
 /// The shipped light culling tolerance: a fiftieth of `U`, well inside
@@ -73,6 +78,7 @@ impl Default for RenderSettings {
             visibility: VisibilityRate::default(),
             settle: true,
             light_tolerance: LIGHT_TOLERANCE,
+            upscaled: false,
         }
     }
 }
@@ -334,6 +340,12 @@ impl Frame {
         }
     }
 
+    /// The guides of the last frame (positions, normals, depths, motion)
+    /// and its `U`.
+    pub fn guides(&self) -> GuideBuffers<'_> {
+        self.guide.buffers(&self.u)
+    }
+
     pub fn pixel_count(&self) -> usize {
         self.width as usize * self.height as usize
     }
@@ -403,7 +415,7 @@ impl Frame {
         } else {
             CameraMotion::Moved
         };
-        let offset = if plan.resolve.is_some() {
+        let offset = if plan.jitter {
             PixelOffset::Frame(frame_jitter(self.jitter_index))
         } else {
             PixelOffset::Centre
@@ -430,7 +442,7 @@ impl Frame {
                 // light change resets the whole history above instead).
                 self.denoise(
                     plan.rate,
-                    plan.resolve.is_none() || motion == CameraMotion::Moved,
+                    !plan.jitter || motion == CameraMotion::Moved,
                     &unsampled,
                 );
                 denoise = t.elapsed().as_secs_f64();

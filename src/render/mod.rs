@@ -12,10 +12,12 @@ pub mod quads;
 pub mod replay;
 pub mod shadow;
 pub mod solo;
+pub mod upscaled;
 pub mod world;
 
 pub use frame::{Frame, LIGHT_TOLERANCE, PhaseTimes, RenderSettings};
 pub use gbuffer::{GSample, PixelKind};
 pub use mode::Mode;
 pub use plan::{FramePlan, VisibilityRate};
+pub use upscaled::{Upscaled, scaled_size};
 pub use world::World;

@@ -100,7 +100,11 @@ pub struct FramePlan {
     /// Settled tiles draw no samples under a still camera (full rate,
     /// denoised).
     pub settle: bool,
-    /// Per-frame camera jitter and the temporal resolve; `None`: neither.
+    /// Per-frame sub-pixel jitter of the camera rays.
+    pub jitter: bool,
+    /// The frame's own temporal resolve; `None`: none (no jitter, or the
+    /// frame is resolved at a larger output size after it, see
+    /// `render::upscaled`).
     pub resolve: Option<ResolveInput>,
 }
 
@@ -123,7 +127,8 @@ impl FramePlan {
         } else {
             VisibilityRate::Full
         };
-        let resolve = (s.taa && !reference).then_some(match (composite, denoise) {
+        let jitter = s.taa && !reference;
+        let resolve = (jitter && !s.upscaled).then_some(match (composite, denoise) {
             (Composite::Ratio, true) => ResolveInput::Modulated,
             (Composite::Stochastic, true) => ResolveInput::Additive,
             _ => ResolveInput::Whole,
@@ -136,13 +141,14 @@ impl FramePlan {
             filter_against_u: denoise && composite == Composite::Stochastic,
             composite,
             settle: s.settle && denoise && rate == VisibilityRate::Full,
+            jitter,
             resolve,
         }
     }
 
-    /// Whether the band pass fills the guides (the denoiser and the resolve
-    /// read them).
+    /// Whether the band pass fills the guides (the denoiser and the
+    /// resolves, the frame's own or the upscale's, read them).
     pub fn needs_guides(&self) -> bool {
-        self.denoise || self.resolve.is_some()
+        self.denoise || self.jitter
     }
 }

@@ -11,7 +11,8 @@ use super::stats::{Spread, interior, interpolate_log_log, median, rel_mse, rel_m
 use crate::embree::{self, Device};
 use crate::render::shadow::PacketWidth;
 use crate::render::{
-    Frame, FramePlan, LIGHT_TOLERANCE, Mode, PhaseTimes, RenderSettings, VisibilityRate, World,
+    Frame, FramePlan, LIGHT_TOLERANCE, Mode, PhaseTimes, RenderSettings, Upscaled, VisibilityRate,
+    World, scaled_size,
 };
 use crate::scene::{Camera, Scene};
 use anyhow::{Context, Result};
@@ -84,6 +85,7 @@ impl BenchOptions {
             packet: PacketWidth::Sixteen,
             rate: VisibilityRate::Full,
             still: Still::Short,
+            scale: 1.0,
         };
         let mut c = Vec::new();
         for mode in [Mode::Ratio, Mode::Stochastic] {
@@ -99,6 +101,12 @@ impl BenchOptions {
                 ..plain(Mode::Ratio, true, spp)
             });
         }
+        // Half the size a side, upscaled to the output: the viewer's
+        // dynamic resolution at its half step.
+        c.push(Config {
+            scale: UPSCALED_SCALE,
+            ..plain(Mode::Ratio, true, 1)
+        });
         if self.extras {
             for packet in [PacketWidth::Eight, PacketWidth::One] {
                 c.push(Config {
@@ -136,7 +144,12 @@ struct Config {
     packet: PacketWidth,
     rate: VisibilityRate,
     still: Still,
+    /// Render size over output size per side (below 1: upscaled).
+    scale: f32,
 }
+
+/// The upscaled row's render scale.
+const UPSCALED_SCALE: f32 = 0.5;
 
 /// How long the camera has been still when a configuration is measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -156,7 +169,10 @@ const LONG_WARMUP: u32 = 16;
 
 impl Config {
     fn label(&self) -> String {
-        let base = label(self.mode, self.denoise, self.packet, self.rate);
+        let mut base = label(self.mode, self.denoise, self.packet, self.rate);
+        if self.scale < 1.0 {
+            base = format!("{base} {}% res", (self.scale * 100.0).round());
+        }
         match self.still {
             Still::Short => base,
             Still::Long => format!("{base} still"),
@@ -310,26 +326,39 @@ struct Bench<'a, 'd> {
 
 impl Bench<'_, '_> {
     /// `warmup` frames, then `frames` measured ones, of a static camera.
+    /// `scale` below 1 renders smaller and upscales to `width` x `height`.
+    #[allow(clippy::too_many_arguments)]
     fn measure(
         &self,
         pool: &rayon::ThreadPool,
         (width, height): (u32, u32),
+        scale: f32,
         settings: &RenderSettings,
         warmup: u32,
         truth: Option<(&[Vec3], &[bool])>,
     ) -> Measured {
-        let mut frame = Frame::new(width, height);
+        let (rw, rh) = scaled_size(width, height, scale);
+        let mut frame = Frame::new(rw, rh);
+        let mut output = (scale < 1.0).then(|| Upscaled::new(width, height));
+        let render = |frame: &mut Frame, output: &mut Option<Upscaled>| {
+            pool.install(|| match output {
+                Some(o) => o.render(frame, self.world, &self.camera, settings),
+                None => frame.render(self.world, &self.camera, settings),
+            })
+        };
         for _ in 0..warmup.max(1) {
-            pool.install(|| frame.render(self.world, &self.camera, settings));
+            render(&mut frame, &mut output);
         }
-        let error =
-            |f: &Frame| truth.map(|(r, m)| (rel_mse(&f.color, r), rel_mse_masked(&f.color, r, m)));
-        let first_frame_error = error(&frame).map(|e| e.0);
+        let error = |f: &Frame, o: &Option<Upscaled>| {
+            let c = o.as_ref().map_or(&f.color, |o| &o.color);
+            truth.map(|(r, m)| (rel_mse(c, r), rel_mse_masked(c, r, m)))
+        };
+        let first_frame_error = error(&frame, &output).map(|e| e.0);
         let mut runs = Vec::new();
         let mut errors = Vec::new();
         for _ in 0..self.frames {
-            runs.push(pool.install(|| frame.render(self.world, &self.camera, settings)));
-            errors.extend(error(&frame));
+            runs.push(render(&mut frame, &mut output));
+            errors.extend(error(&frame, &output));
         }
         Measured {
             runs,
@@ -447,7 +476,14 @@ fn bench_scene(
             light_tolerance: opts.light_tolerance,
             ..cfg.settings()
         };
-        let m = bench.measure(&all, size, &settings, cfg.warmup(), Some((&truth, &mask)));
+        let m = bench.measure(
+            &all,
+            size,
+            cfg.scale,
+            &settings,
+            cfg.warmup(),
+            Some((&truth, &mask)),
+        );
         let frame_ms = frame_spread(&m.runs);
         let stage = |f: fn(&PhaseTimes) -> f64| {
             median(&m.runs.iter().map(f).collect::<Vec<_>>()) / threads as f64 * 1e3
@@ -472,6 +508,7 @@ fn bench_scene(
         configs.push(ConfigReport {
             label: cfg.label(),
             visibility: FramePlan::of(&settings).rate.name().to_string(),
+            render_scale: cfg.scale,
             mode: mode.name().to_string(),
             denoise: dn,
             spp: if shadowed { spp } else { 0 },
@@ -520,7 +557,7 @@ fn bench_scene(
         .iter()
         .find(|c| c.label == shipped && c.spp == scaled.spp)
         .map(|c| c.frame_ms)
-        .unwrap_or_else(|| frame_spread(&bench.measure(&all, size, &scaled, 1, None).runs));
+        .unwrap_or_else(|| frame_spread(&bench.measure(&all, size, 1.0, &scaled, 1, None).runs));
     let mut thread_points = Vec::new();
     for t in thread_counts(threads) {
         if t == threads {
@@ -533,7 +570,7 @@ fn bench_scene(
             let pool = embree::thread_pool(t)?;
             thread_points.push(ThreadPoint {
                 threads: t,
-                frame_ms: frame_spread(&bench.measure(&pool, size, &scaled, 1, None).runs),
+                frame_ms: frame_spread(&bench.measure(&pool, size, 1.0, &scaled, 1, None).runs),
                 ceiling_ms: ceiling_for(scaled.spp, &pool, t),
             });
         }
@@ -542,7 +579,7 @@ fn bench_scene(
     let thread_speedup = first.frame_ms.median / last.frame_ms.median;
     let ceiling_speedup = first.ceiling_ms / last.ceiling_ms;
     let half = ((opts.width / 2).max(8), (opts.height / 2).max(8));
-    let half_ms = frame_spread(&bench.measure(&all, half, &scaled, 1, None).runs);
+    let half_ms = frame_spread(&bench.measure(&all, half, 1.0, &scaled, 1, None).runs);
     let resolution: Vec<ResolutionPoint> = [(size, full), (half, half_ms)]
         .into_iter()
         .map(|((w, h), ms)| ResolutionPoint {
@@ -597,6 +634,7 @@ pub fn equal_time(configs: &[ConfigReport]) -> Vec<EqualTime> {
         configs
             .iter()
             .filter(|c| c.mode == mode && c.denoise)
+            .filter(|c| c.render_scale == 1.0)
             .filter(|c| c.mode != "ratio" || c.visibility == rate)
             .map(|c| (c.frame_ms.median, c.rel_mse, c.spp))
             .collect()

@@ -69,8 +69,10 @@ fn draw_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
 }
 
 /// Series: (label, colour), in legend order.
-const SERIES: [(&str, RGBColor); 6] = [
+const SERIES: [(&str, RGBColor); 8] = [
     ("ratio+dn", RGBColor(200, 30, 30)),
+    ("ratio+dn 1/4", RGBColor(230, 120, 20)),
+    ("ratio+dn 50% res", RGBColor(150, 40, 160)),
     ("ratio", RGBColor(240, 140, 140)),
     ("stochastic+dn", RGBColor(30, 70, 200)),
     ("stochastic", RGBColor(140, 170, 240)),

@@ -82,6 +82,10 @@ pub struct ConfigReport {
     /// Which pixels drew visibility samples (`full`, `quarter`).
     #[serde(default = "full_rate")]
     pub visibility: String,
+    /// Render size over output size, per side (1: rendered at the output's
+    /// size; below 1, upscaled to it, `render::upscaled`).
+    #[serde(default = "unit_scale")]
+    pub render_scale: f32,
     pub mode: String,
     pub denoise: bool,
     pub spp: u32,
@@ -163,6 +167,10 @@ pub struct EqualTime {
     /// Interpolated (log-log) on the other mode's curve at `ms`.
     pub stochastic_rel_mse: f64,
     pub stochastic_over_ratio: f64,
+}
+
+fn unit_scale() -> f32 {
+    1.0
 }
 
 fn full_rate() -> String {

@@ -1,10 +1,11 @@
 //! Dynamic resolution: the viewer renders at a fraction of the window's
 //! size, chosen from a short ladder to hold a target frame rate, and the
-//! window stretches the frame to its size.
+//! frame is upscaled to the window's size (`render::upscaled`).
 //!
 //! Each change of scale starts the frame's histories afresh (they describe
-//! other pixels), so the controller changes seldom: down as soon as a few
-//! frames are clearly over budget, up only after many frames well under it.
+//! other pixels; the upscaled output's is kept), so the controller changes
+//! seldom: down as soon as a few frames are clearly over budget, up only
+//! after many frames well under it.
 
 /// Scales of the window's width and height, largest first.
 pub const LADDER: [f32; 9] = [1.0, 0.85, 0.7, 0.6, 0.5, 0.42, 0.35, 0.3, 0.25];
@@ -44,8 +45,7 @@ impl DynamicScale {
     /// The render size for a window of `width` x `height`: the scale of
     /// each side, at least 8 pixels.
     pub fn size(&self, width: u32, height: u32) -> (u32, u32) {
-        let side = |n: u32| ((n as f32 * self.scale()).round() as u32).clamp(8.min(n), n);
-        (side(width), side(height))
+        crate::render::scaled_size(width, height, self.scale())
     }
 
     /// Takes a shown frame's time; returns true when the scale changed.

@@ -7,8 +7,9 @@ use super::input::{Action, FrameInput};
 use super::overlay::{self, FrameTiming, Readout};
 use super::present;
 use super::scale::DynamicScale;
-use crate::render::{Frame, FramePlan, Mode, PhaseTimes, RenderSettings, World};
+use crate::render::{Frame, FramePlan, Mode, PhaseTimes, RenderSettings, Upscaled, World};
 use crate::scene::Camera;
+use glam::Vec3;
 use std::time::{Duration, Instant};
 
 /// Look sensitivity: radians per pixel dragged, and per second of arrow key.
@@ -23,8 +24,12 @@ const STATUS_FOR: Duration = Duration::from_secs(4);
 pub struct Session {
     pub settings: RenderSettings,
     pub flyer: Flyer,
+    /// The frame at the render size.
     pub frame: Frame,
-    /// The window's pixels, 0RGB, the frame's size.
+    /// Under a target frame rate: the output at the window's size, which
+    /// the frame is upscaled to (`None`: the frame is the window's size).
+    pub upscaled: Option<Upscaled>,
+    /// The window's pixels, 0RGB, the shown size (see `shown_size`).
     pub pixels: Vec<u32>,
     exposure_scale: f32,
     pub overlay: bool,
@@ -59,6 +64,7 @@ impl Session {
             flyer: Flyer::from_camera(camera),
             pixels: vec![0; frame.pixel_count()],
             frame,
+            upscaled: None,
             exposure_scale: exposure.exp2(),
             overlay,
             help: false,
@@ -73,11 +79,33 @@ impl Session {
         }
     }
 
+    /// Holds `dynamic`'s frame rate from now on: the frame is rendered at
+    /// its scale of the window and upscaled to the window's size.
+    pub fn hold(&mut self, dynamic: DynamicScale) {
+        let (w, h) = self.window;
+        self.dynamic = Some(dynamic);
+        self.upscaled = Some(Upscaled::new(w, h));
+        let (rw, rh) = self.render_size();
+        self.resize(rw, rh);
+        self.pixels = vec![0; w as usize * h as usize];
+    }
+
     /// The window changed size: render at its new size (or its scale).
+    /// A size the renderer refuses (e.g. a minimised window) is ignored.
     pub fn resize_window(&mut self, width: u32, height: u32) -> bool {
+        if (width, height) == self.window || crate::scene::check_resolution(width, height).is_err()
+        {
+            return false;
+        }
         self.window = (width, height);
+        if let Some(u) = self.upscaled.as_mut() {
+            *u = Upscaled::new(width, height);
+        }
         let (w, h) = self.render_size();
-        self.resize(w, h)
+        self.resize(w, h);
+        let (sw, sh) = self.shown_size();
+        self.pixels = vec![0; sw as usize * sh as usize];
+        true
     }
 
     /// Takes a shown frame's time; under a target frame rate, rescales the
@@ -98,8 +126,24 @@ impl Session {
         self.dynamic.as_ref().map_or((w, h), |d| d.size(w, h))
     }
 
+    /// The render size.
     pub fn size(&self) -> (u32, u32) {
         (self.frame.width, self.frame.height)
+    }
+
+    /// The size of what is shown: the window's under a target frame rate,
+    /// else the frame's.
+    pub fn shown_size(&self) -> (u32, u32) {
+        self.upscaled
+            .as_ref()
+            .map_or(self.size(), Upscaled::output_size)
+    }
+
+    /// The linear radiance shown, at `shown_size`.
+    pub fn shown(&self) -> &[Vec3] {
+        self.upscaled
+            .as_ref()
+            .map_or(&self.frame.color, |u| &u.color)
     }
 
     /// Carries out a command. Returns `false` for `Quit`. A screenshot
@@ -143,6 +187,9 @@ impl Session {
     /// Restarts temporal history and `reference` accumulation.
     fn reset(&mut self) {
         self.frame.reset_history();
+        if let Some(u) = self.upscaled.as_mut() {
+            u.reset_history();
+        }
         self.accumulated = 0;
     }
 
@@ -157,15 +204,18 @@ impl Session {
         );
     }
 
-    /// Re-allocates the frame state for a new size (history starts afresh).
-    /// A size the renderer refuses (e.g. a minimised window) is ignored.
+    /// Re-allocates the frame state for a new render size (its history
+    /// starts afresh; an upscaled output's is kept). A size the renderer
+    /// refuses (e.g. a minimised window) is ignored.
     pub fn resize(&mut self, width: u32, height: u32) -> bool {
         if (width, height) == self.size() || crate::scene::check_resolution(width, height).is_err()
         {
             return false;
         }
         self.frame = Frame::new(width, height);
-        self.pixels = vec![0; self.frame.pixel_count()];
+        if self.upscaled.is_none() {
+            self.pixels = vec![0; self.frame.pixel_count()];
+        }
         self.accumulated = 0;
         self.last_camera = None;
         true
@@ -183,20 +233,27 @@ impl Session {
             self.accumulated += self.settings.spp;
         }
         self.last_camera = Some(camera);
-        self.frame.render(world, &camera, &self.settings)
+        match self.upscaled.as_mut() {
+            Some(u) => u.render(&mut self.frame, world, &camera, &self.settings),
+            None => self.frame.render(world, &camera, &self.settings),
+        }
     }
 
     /// Tonemaps the frame into the window pixels and draws the overlay.
     /// Must run inside the rayon pool.
     pub fn compose(&mut self) {
-        let bad = present::to_display(&self.frame.color, self.exposure_scale, &mut self.pixels);
+        let color = match &self.upscaled {
+            Some(u) => &u.color,
+            None => &self.frame.color,
+        };
+        let bad = present::to_display(color, self.exposure_scale, &mut self.pixels);
         if bad > 0 && self.non_finite == 0 {
             eprintln!("penumbra: the renderer produced non-finite pixels; they are shown black");
         }
         self.non_finite += bad as u64;
         if self.overlay {
             let lines = self.readout().lines();
-            let (w, h) = self.size();
+            let (w, h) = self.shown_size();
             overlay::draw(&mut self.pixels, w as usize, h as usize, &lines);
         }
     }
@@ -298,7 +355,6 @@ impl Session {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
 
     fn session() -> Session {
         let camera = Camera {

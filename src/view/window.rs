@@ -24,8 +24,8 @@ pub struct ViewOptions {
     pub settings: RenderSettings,
     pub threads: usize,
     pub exposure: f32,
-    /// Scale the render resolution to hold this frame rate (the window
-    /// stretches the frame to its size).
+    /// Scale the render resolution to hold this frame rate (the frame is
+    /// upscaled to the window's size, `render::upscaled`).
     pub target_fps: Option<f32>,
     /// Draw the overlay (key `O` toggles it).
     pub overlay: bool,
@@ -75,7 +75,9 @@ pub fn run(opts: ViewOptions) -> Result<()> {
     let world = World::build(&device, scene).context("building the ray-tracing scene")?;
     let pool = embree::thread_pool(opts.threads)?;
     let mut session = Session::new(opts.settings, &camera, w, h, opts.exposure, opts.overlay);
-    session.dynamic = opts.target_fps.and_then(DynamicScale::new);
+    if let Some(d) = opts.target_fps.and_then(DynamicScale::new) {
+        session.hold(d);
+    }
     let player = script.map(Player::new);
     fly(
         &mut window,
@@ -86,13 +88,8 @@ pub fn run(opts: ViewOptions) -> Result<()> {
         opts.frames,
     )?;
     if let Some(path) = &opts.screenshot {
-        for p in present::save_screenshot(
-            path,
-            session.frame.width,
-            session.frame.height,
-            &session.pixels,
-            &session.frame.color,
-        )? {
+        let (w, h) = session.shown_size();
+        for p in present::save_screenshot(path, w, h, &session.pixels, session.shown())? {
             println!("{}", p.display());
         }
     }
@@ -174,7 +171,7 @@ fn fly(
         let times = pool.install(|| session.render(world));
         let t = Instant::now();
         pool.install(|| session.compose());
-        let (fw, fh) = session.size();
+        let (fw, fh) = session.shown_size();
         window
             .update_with_buffer(&session.pixels, fw as usize, fh as usize)
             .context("presenting the frame")?;
@@ -225,13 +222,8 @@ fn take_screenshots(session: &mut Session, requests: Vec<Option<PathBuf>>) -> Re
 
 /// Writes what the window shows now; returns a message saying where.
 fn screenshot(session: &Session, path: &Path) -> Result<String> {
-    let [png, exr] = present::save_screenshot(
-        path,
-        session.frame.width,
-        session.frame.height,
-        &session.pixels,
-        &session.frame.color,
-    )?;
+    let (w, h) = session.shown_size();
+    let [png, exr] = present::save_screenshot(path, w, h, &session.pixels, session.shown())?;
     Ok(format!("saved {} and {}", png.display(), exr.display()))
 }
 

@@ -201,3 +201,49 @@ fn a_light_tolerance_outside_0_to_half_is_refused() {
     assert_refused("tol-neg", "--light-tolerance", "-0.1");
     assert_refused("tol-nan", "--light-tolerance", "NaN");
 }
+
+#[test]
+fn a_render_scale_outside_0_to_1_is_refused() {
+    assert_refused("scale-zero", "--render-scale", "0");
+    assert_refused("scale-big", "--render-scale", "1.5");
+    assert_refused("scale-neg", "--render-scale", "-0.5");
+    assert_refused("scale-nan", "--render-scale", "NaN");
+}
+
+#[test]
+fn an_upscaled_render_writes_the_output_size_and_names_the_render_size() {
+    let dir = temp_dir("upscaled");
+    let out = dir.join("u.png");
+    let run = penumbra()
+        .args(["render", "--width", "32", "--height", "18"])
+        .args(["--render-scale", "0.5", "--frames", "3", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "stderr: {err}");
+    assert!(err.contains("32x18 (rendered at 16x9)"), "stderr: {err}");
+    let img = image::open(&out).unwrap();
+    assert_eq!((img.width(), img.height()), (32, 18));
+}
+
+#[test]
+fn frame_aovs_below_render_scale_1_are_refused_before_rendering() {
+    let dir = temp_dir("upscaled-aov");
+    let run = penumbra()
+        .args(["render", "--width", "32", "--height", "18"])
+        .args(["--render-scale", "0.5", "--aov", "u", "--out"])
+        .arg(dir.join("u.png"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        err.contains("--render-scale") && err.contains("--aov"),
+        "stderr: {err}"
+    );
+    assert!(
+        std::fs::read_dir(&dir).unwrap().next().is_none(),
+        "a file was written"
+    );
+}

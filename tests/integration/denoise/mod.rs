@@ -10,3 +10,4 @@ mod resolve;
 mod robustness;
 mod same_weights;
 mod tiles;
+mod upscale;

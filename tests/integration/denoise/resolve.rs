@@ -22,16 +22,7 @@ fn a_still_cameras_resolve_converges_to_the_box_filtered_pixel() {
         taa,
         ..RenderSettings::default()
     };
-    let s = 8u32;
-    let mut fine = Frame::new(w * s, h * s);
-    pool.install(|| fine.render(&world, &scene.camera, &settings(false)));
-    let mut boxed = vec![Vec3::ZERO; (w * h) as usize];
-    for y in 0..h * s {
-        for x in 0..w * s {
-            boxed[((y / s) * w + x / s) as usize] +=
-                fine.color[(y * w * s + x) as usize] / (s * s) as f32;
-        }
-    }
+    let boxed = crate::support::box_filtered_u(&world, &pool, &scene.camera, (w, h), 8);
     let mut frame = Frame::new(w, h);
     let (mut errors, mut whole) = (Vec::new(), Vec::new());
     let mut inside = Vec::new();

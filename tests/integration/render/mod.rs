@@ -1,4 +1,4 @@
-//! Frames: the G-buffer, determinism, the seed paper's claims, shadow budgets, visibility rate, settled tiles, the pixel replay, NaN sweeps.
+//! Frames: the G-buffer, determinism, the seed paper's claims, shadow budgets, visibility rate, settled tiles, the pixel replay, NaN sweeps, upscaled output.
 
 mod determinism;
 mod gbuffer;
@@ -9,4 +9,5 @@ mod pixel_replay;
 mod seed_claims;
 mod settle;
 mod shadow_budget;
+mod upscaled;
 mod visibility_rate;

@@ -131,3 +131,30 @@ pub fn temp(area: &str, name: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
 }
+
+/// The box-filtered unshadowed `U` of every pixel of a `width` x `height`
+/// frame of `camera`: `U` at `s` x `s` sub-pixel centres (an unjittered
+/// render at `s` times the size), averaged over each pixel's block.
+pub fn box_filtered_u(
+    world: &World,
+    pool: &rayon::ThreadPool,
+    camera: &penumbra::scene::Camera,
+    (width, height): (u32, u32),
+    s: u32,
+) -> Vec<glam::Vec3> {
+    let settings = RenderSettings {
+        mode: Mode::Unshadowed,
+        taa: false,
+        ..RenderSettings::default()
+    };
+    let mut fine = Frame::new(width * s, height * s);
+    pool.install(|| fine.render(world, camera, &settings));
+    let mut boxed = vec![glam::Vec3::ZERO; (width * height) as usize];
+    for y in 0..height * s {
+        for x in 0..width * s {
+            boxed[((y / s) * width + x / s) as usize] +=
+                fine.color[(y * width * s + x) as usize] / (s * s) as f32;
+        }
+    }
+    boxed
+}

@@ -1,0 +1,162 @@
+//! Frames rendered below the output's size and upscaled to it
+//! (`render::upscaled`): a still camera's frames converge towards the
+//! output's box-filtered pixels, far below what stretching the small frame
+//! gives; no NaN at any scale or mode; the same bytes at any thread count;
+//! no trace of an old view a few frames after the camera moves.
+
+use crate::support::load;
+use glam::Vec3;
+use penumbra::embree::{self, Device};
+use penumbra::render::{Frame, Mode, RenderSettings, Upscaled, World, scaled_size};
+use penumbra::report::stats::{interior, rel_mse, rel_mse_masked};
+use penumbra::scene::{Camera, Scene};
+
+const WIDTH: u32 = 160;
+const HEIGHT: u32 = 90;
+const SCALE: f32 = 0.5;
+
+/// The output after each of `cameras`, rendered at `scale`.
+fn upscaled_frames(
+    scene: &Scene,
+    settings: &RenderSettings,
+    threads: usize,
+    scale: f32,
+    cameras: &[Camera],
+) -> Vec<Vec<Vec3>> {
+    let device = Device::new().expect("Embree starts");
+    let world = World::build(&device, scene.clone()).expect("scene builds");
+    let pool = embree::thread_pool(threads).expect("thread pool");
+    let (rw, rh) = scaled_size(WIDTH, HEIGHT, scale);
+    let mut frame = Frame::new(rw, rh);
+    let mut out = Upscaled::new(WIDTH, HEIGHT);
+    pool.install(|| {
+        cameras
+            .iter()
+            .map(|cam| {
+                out.render(&mut frame, &world, cam, settings);
+                out.color.clone()
+            })
+            .collect()
+    })
+}
+
+fn unshadowed(taa: bool) -> RenderSettings {
+    RenderSettings {
+        mode: Mode::Unshadowed,
+        taa,
+        ..RenderSettings::default()
+    }
+}
+
+/// After 16 still frames at half the size, the upscaled `U` is within this
+/// fraction of the error (against the output's box-filtered `U`) that the
+/// half-size frame stretched to the output (what a window does) has.
+const UPSCALE_VS_STRETCH: f64 = 0.5;
+
+#[test]
+fn a_still_cameras_upscaled_frames_approach_the_box_filtered_output() {
+    let scene = load("room.toml");
+    let device = Device::new().expect("Embree starts");
+    let world = World::build(&device, scene.clone()).expect("scene builds");
+    let pool = embree::thread_pool(2).expect("thread pool");
+    let boxed = crate::support::box_filtered_u(&world, &pool, &scene.camera, (WIDTH, HEIGHT), 8);
+    let mut full = Frame::new(WIDTH, HEIGHT);
+    pool.install(|| full.render(&world, &scene.camera, &unshadowed(false)));
+    let inside = interior(WIDTH, HEIGHT, &full.gbuf);
+
+    let (rw, rh) = scaled_size(WIDTH, HEIGHT, SCALE);
+    let mut small = Frame::new(rw, rh);
+    pool.install(|| small.render(&world, &scene.camera, &unshadowed(false)));
+    let stretched: Vec<Vec3> = (0..WIDTH * HEIGHT)
+        .map(|k| {
+            let (x, y) = (k % WIDTH * rw / WIDTH, k / WIDTH * rh / HEIGHT);
+            small.color[(y * rw + x) as usize]
+        })
+        .collect();
+
+    let frames = upscaled_frames(&scene, &unshadowed(true), 2, SCALE, &[scene.camera; 16]);
+    let e = |c: &[Vec3]| rel_mse_masked(c, &boxed, &inside);
+    let (e_stretch, e1, e16) = (e(&stretched), e(&frames[0]), e(&frames[15]));
+    let e_full = e(&full.color);
+    println!(
+        "room {WIDTH}x{HEIGHT} from {rw}x{rh}, unshadowed vs box-filtered U, interior relMSE: \
+         stretched {e_stretch:.3e}, upscaled after 1 frame {e1:.3e}, after 16 {e16:.3e}; \
+         one unjittered frame at full size {e_full:.3e}; whole frame after 16 {:.3e}",
+        rel_mse(&frames[15], &boxed)
+    );
+    assert!(
+        e16 <= UPSCALE_VS_STRETCH * e_stretch,
+        "after 16 frames {e16:.3e}, stretched {e_stretch:.3e}"
+    );
+    assert!(e16 < e1, "16 frames {e16:.3e} vs the first {e1:.3e}");
+}
+
+#[test]
+fn upscaled_frames_are_the_same_bytes_at_any_thread_count() {
+    let scene = load("room.toml");
+    let settings = RenderSettings::default();
+    let path: Vec<Camera> = [0.0, 1.5, 3.0, 3.0]
+        .iter()
+        .map(|d| scene.camera.orbit(*d))
+        .collect();
+    let one = upscaled_frames(&scene, &settings, 1, SCALE, &path);
+    let two = upscaled_frames(&scene, &settings, 2, SCALE, &path);
+    assert!(one == two, "1 and 2 threads differ");
+}
+
+#[test]
+fn no_upscaled_pixel_is_ever_non_finite() {
+    let scene = load("room.toml");
+    let path: Vec<Camera> = [0.0, 4.0, 4.0]
+        .iter()
+        .map(|d| scene.camera.orbit(*d))
+        .collect();
+    for mode in Mode::ALL {
+        for scale in [0.25, 0.6, 1.0] {
+            for taa in [true, false] {
+                let settings = RenderSettings {
+                    mode,
+                    taa,
+                    ..RenderSettings::default()
+                };
+                for c in upscaled_frames(&scene, &settings, 2, scale, &path) {
+                    assert!(
+                        c.iter().all(|v| v.is_finite()),
+                        "{mode}, scale {scale}, taa {taa}: a non-finite pixel"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// After a cut from another view, the upscaled frames at the new view
+/// approach an upscale that started there: `GHOST_FRAMES` frames after the
+/// move the error against a long still upscale is within `GHOST_FACTOR` of
+/// what a fresh start of as many frames has.
+const GHOST_FRAMES: usize = 4;
+const GHOST_FACTOR: f64 = 1.5;
+const CONVERGED_FRAMES: usize = 32;
+
+#[test]
+fn a_camera_move_leaves_no_ghost_in_the_upscaled_output_beyond_a_few_frames() {
+    let scene = load("room.toml");
+    let before = scene.camera.orbit(-25.0);
+    let after = scene.camera;
+    let s = RenderSettings::default();
+    let truth = upscaled_frames(&scene, &s, 2, SCALE, &[after; CONVERGED_FRAMES])
+        .pop()
+        .expect("frames");
+    let mut path = vec![before; 8];
+    path.extend(std::iter::repeat_n(after, GHOST_FRAMES + 1));
+    let moved = upscaled_frames(&scene, &s, 2, SCALE, &path);
+    let fresh = upscaled_frames(&scene, &s, 2, SCALE, &[after; GHOST_FRAMES + 1]);
+    let (e_moved, e_fresh) = (
+        rel_mse(&moved[8 + GHOST_FRAMES], &truth),
+        rel_mse(&fresh[GHOST_FRAMES], &truth),
+    );
+    assert!(
+        e_moved <= GHOST_FACTOR * e_fresh,
+        "{GHOST_FRAMES} frames after the move relMSE {e_moved:.3e}, a fresh start {e_fresh:.3e}"
+    );
+}
