@@ -373,10 +373,13 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     pool.install(|| -> Result<()> {
         for k in 0..a.frames {
             let cam = camera.orbit(a.orbit * k as f32);
-            last = Some(match target.as_mut() {
-                Some(o) => o.render(&mut frame, &world, &cam, &settings),
-                None => frame.render(&world, &cam, &settings),
-            });
+            last = Some(penumbra::render::render_frame(
+                &mut frame,
+                target.as_mut(),
+                &world,
+                &cam,
+                &settings,
+            ));
             if let Some(p) = &per_frame {
                 written.extend(write(&p.path(k), &frame, &target)?);
             }

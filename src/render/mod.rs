@@ -19,5 +19,5 @@ pub use frame::{Frame, LIGHT_TOLERANCE, PhaseTimes, RenderSettings};
 pub use gbuffer::{GSample, PixelKind};
 pub use mode::Mode;
 pub use plan::{FramePlan, VisibilityRate};
-pub use upscaled::{Upscaled, scaled_size};
+pub use upscaled::{Upscaled, render_frame, scaled_size, shown};
 pub use world::World;

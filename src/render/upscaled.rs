@@ -25,6 +25,28 @@ pub fn scaled_size(width: u32, height: u32, scale: f32) -> (u32, u32) {
     (side(width), side(height))
 }
 
+/// Renders one frame of `camera` into `frame`, upscaled into `target`'s
+/// output when there is one: the one step every caller (render, view,
+/// bench) takes, whichever way it shows frames.
+pub fn render_frame(
+    frame: &mut Frame,
+    target: Option<&mut Upscaled>,
+    world: &World,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> PhaseTimes {
+    match target {
+        Some(t) => t.render(frame, world, camera, settings),
+        None => frame.render(world, camera, settings),
+    }
+}
+
+/// The linear radiance shown: `target`'s output when there is one, else
+/// the frame's.
+pub fn shown<'a>(frame: &'a Frame, target: Option<&'a Upscaled>) -> &'a [Vec3] {
+    target.map_or(&frame.color, |t| &t.color)
+}
+
 /// The output side of an upscaled frame: the upscale's history and the
 /// output's colour. The frame itself stays its owner's, at the render size.
 pub struct Upscaled {
@@ -56,11 +78,6 @@ impl Upscaled {
     pub fn reset_history(&mut self) {
         self.upscale.reset();
         self.prev_camera = None;
-    }
-
-    /// Samples averaged per output pixel (see `denoise::upscale`).
-    pub fn history_len(&self) -> Vec<f32> {
-        self.upscale.history_len()
     }
 
     /// Renders one frame of `camera` into `frame` (any size up to the

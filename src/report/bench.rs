@@ -12,7 +12,7 @@ use crate::embree::{self, Device};
 use crate::render::shadow::PacketWidth;
 use crate::render::{
     Frame, FramePlan, LIGHT_TOLERANCE, Mode, PhaseTimes, RenderSettings, Upscaled, VisibilityRate,
-    World, scaled_size,
+    World, render_frame, scaled_size, shown,
 };
 use crate::scene::{Camera, Scene};
 use anyhow::{Context, Result};
@@ -341,16 +341,15 @@ impl Bench<'_, '_> {
         let mut frame = Frame::new(rw, rh);
         let mut output = (scale < 1.0).then(|| Upscaled::new(width, height));
         let render = |frame: &mut Frame, output: &mut Option<Upscaled>| {
-            pool.install(|| match output {
-                Some(o) => o.render(frame, self.world, &self.camera, settings),
-                None => frame.render(self.world, &self.camera, settings),
+            pool.install(|| {
+                render_frame(frame, output.as_mut(), self.world, &self.camera, settings)
             })
         };
         for _ in 0..warmup.max(1) {
             render(&mut frame, &mut output);
         }
         let error = |f: &Frame, o: &Option<Upscaled>| {
-            let c = o.as_ref().map_or(&f.color, |o| &o.color);
+            let c = shown(f, o.as_ref());
             truth.map(|(r, m)| (rel_mse(c, r), rel_mse_masked(c, r, m)))
         };
         let first_frame_error = error(&frame, &output).map(|e| e.0);

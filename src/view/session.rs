@@ -7,7 +7,7 @@ use super::input::{Action, FrameInput};
 use super::overlay::{self, FrameTiming, Readout};
 use super::present;
 use super::scale::DynamicScale;
-use crate::render::{Frame, FramePlan, Mode, PhaseTimes, RenderSettings, Upscaled, World};
+use crate::render::{self, Frame, FramePlan, Mode, PhaseTimes, RenderSettings, Upscaled, World};
 use crate::scene::Camera;
 use glam::Vec3;
 use std::time::{Duration, Instant};
@@ -87,7 +87,7 @@ impl Session {
         self.upscaled = Some(Upscaled::new(w, h));
         let (rw, rh) = self.render_size();
         self.resize(rw, rh);
-        self.pixels = vec![0; w as usize * h as usize];
+        self.fit_pixels();
     }
 
     /// The window changed size: render at its new size (or its scale).
@@ -103,9 +103,17 @@ impl Session {
         }
         let (w, h) = self.render_size();
         self.resize(w, h);
-        let (sw, sh) = self.shown_size();
-        self.pixels = vec![0; sw as usize * sh as usize];
+        self.fit_pixels();
         true
+    }
+
+    /// Sizes the window pixels to what is shown.
+    fn fit_pixels(&mut self) {
+        let (w, h) = self.shown_size();
+        let n = w as usize * h as usize;
+        if self.pixels.len() != n {
+            self.pixels = vec![0; n];
+        }
     }
 
     /// Takes a shown frame's time; under a target frame rate, rescales the
@@ -141,9 +149,7 @@ impl Session {
 
     /// The linear radiance shown, at `shown_size`.
     pub fn shown(&self) -> &[Vec3] {
-        self.upscaled
-            .as_ref()
-            .map_or(&self.frame.color, |u| &u.color)
+        render::shown(&self.frame, self.upscaled.as_ref())
     }
 
     /// Carries out a command. Returns `false` for `Quit`. A screenshot
@@ -213,9 +219,7 @@ impl Session {
             return false;
         }
         self.frame = Frame::new(width, height);
-        if self.upscaled.is_none() {
-            self.pixels = vec![0; self.frame.pixel_count()];
-        }
+        self.fit_pixels();
         self.accumulated = 0;
         self.last_camera = None;
         true
@@ -233,19 +237,19 @@ impl Session {
             self.accumulated += self.settings.spp;
         }
         self.last_camera = Some(camera);
-        match self.upscaled.as_mut() {
-            Some(u) => u.render(&mut self.frame, world, &camera, &self.settings),
-            None => self.frame.render(world, &camera, &self.settings),
-        }
+        render::render_frame(
+            &mut self.frame,
+            self.upscaled.as_mut(),
+            world,
+            &camera,
+            &self.settings,
+        )
     }
 
     /// Tonemaps the frame into the window pixels and draws the overlay.
     /// Must run inside the rayon pool.
     pub fn compose(&mut self) {
-        let color = match &self.upscaled {
-            Some(u) => &u.color,
-            None => &self.frame.color,
-        };
+        let color = render::shown(&self.frame, self.upscaled.as_ref());
         let bad = present::to_display(color, self.exposure_scale, &mut self.pixels);
         if bad > 0 && self.non_finite == 0 {
             eprintln!("penumbra: the renderer produced non-finite pixels; they are shown black");
