@@ -19,8 +19,8 @@
 //! shadowed glossy floor.
 
 use glam::Vec3;
+use penumbra::display::display_rgb8;
 use penumbra::embree::{self, Device};
-use penumbra::output::display_rgb8;
 use penumbra::render::{Frame, Mode, RenderSettings, World};
 use penumbra::report::stats::{rel_mse, rel_mse_masked, shadowed_glossy};
 use penumbra::scene::Scene;

@@ -7,10 +7,10 @@
 //! taken on those values, so an EXR and a PNG are never mixed. FLIP is the
 //! LDR FLIP of `nv-flip` (NVIDIA's reference code), which takes sRGB images:
 //! a PNG goes in as its bytes, an EXR through the renderer's own display
-//! transform at exposure 0 (`output::display_rgb8`), as `render` would
+//! transform at exposure 0 (`display::display_rgb8`, by its table `DisplayMap`), as `render` would
 //! have written it to PNG.
 
-use crate::output::display_rgb8;
+use crate::display::DisplayMap;
 use crate::report::stats::rel_mse;
 use glam::Vec3;
 use image::ImageFormat;
@@ -146,11 +146,10 @@ impl Image {
     /// The image as FLIP reads it: sRGB, 8 bits per channel.
     fn srgb8(&self) -> Vec<u8> {
         match self.encoding {
-            Encoding::Linear => self
-                .pixels
-                .iter()
-                .flat_map(|c| display_rgb8(*c, 1.0))
-                .collect(),
+            Encoding::Linear => {
+                let map = DisplayMap::new(1.0);
+                self.pixels.iter().flat_map(|c| map.rgb8(*c)).collect()
+            }
             Encoding::Display => self
                 .pixels
                 .iter()

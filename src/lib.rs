@@ -8,6 +8,7 @@
 pub mod color;
 pub mod compare;
 pub mod denoise;
+pub mod display;
 pub mod embree;
 pub mod isa;
 pub mod output;

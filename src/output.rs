@@ -1,6 +1,7 @@
-//! Frames to files: EXR keeps linear radiance, PNG is exposure, tonemap and
-//! sRGB encoding. Also the extra AOV files written beside the main image.
+//! Frames to files: EXR keeps linear radiance, PNG the display transform
+//! (`display`). Also the extra AOV files written beside the main image.
 
+use crate::display::DisplayMap;
 use crate::render::{Frame, PixelKind};
 use glam::Vec3;
 use image::{ImageBuffer, Rgb};
@@ -100,28 +101,6 @@ pub fn aov_path(out: &Path, aov: Aov) -> PathBuf {
     out.with_file_name(format!("{stem}.{}.exr", aov.name()))
 }
 
-/// Display transform for PNG and the window: exposure (in stops), a smooth
-/// per-channel shoulder `1 - exp(-x)` that never clips, then sRGB encoding.
-#[inline]
-pub fn display_rgb8(c: Vec3, exposure_scale: f32) -> [u8; 3] {
-    let map = |x: f32| {
-        let x = if x.is_finite() { x.max(0.0) } else { 0.0 } * exposure_scale;
-        let t = 1.0 - (-x).exp();
-        (srgb_encode(t) * 255.0 + 0.5) as u8
-    };
-    [map(c.x), map(c.y), map(c.z)]
-}
-
-#[inline]
-pub fn srgb_encode(x: f32) -> f32 {
-    let x = x.clamp(0.0, 1.0);
-    if x <= 0.003_130_8 {
-        12.92 * x
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    }
-}
-
 /// Writes linear values as EXR (32-bit float RGB). Non-finite values are
 /// written as 0 so no file ever carries a NaN.
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), OutputError> {
@@ -148,11 +127,8 @@ pub fn write_png(
     pixels: &[Vec3],
     exposure: f32,
 ) -> Result<(), OutputError> {
-    let scale = exposure.exp2();
-    let data: Vec<u8> = pixels
-        .iter()
-        .flat_map(|c| display_rgb8(*c, scale))
-        .collect();
+    let map = DisplayMap::new(exposure.exp2());
+    let data: Vec<u8> = pixels.iter().flat_map(|c| map.rgb8(*c)).collect();
     let img: ImageBuffer<Rgb<u8>, Vec<u8>> =
         ImageBuffer::from_raw(width, height, data).expect("buffer size matches width * height");
     img.save_with_format(path, image::ImageFormat::Png)

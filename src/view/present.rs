@@ -1,5 +1,6 @@
 //! Linear frame to window pixels, and window pixels to screenshot files.
 
+use crate::display::DisplayMap;
 use crate::output;
 use anyhow::{Context, Result};
 use glam::Vec3;
@@ -13,6 +14,7 @@ use std::path::{Path, PathBuf};
 /// Returns how many pixels were non-finite, so the caller can say so.
 pub fn to_display(color: &[Vec3], exposure_scale: f32, out: &mut [u32]) -> usize {
     assert_eq!(color.len(), out.len(), "frame and window sizes agree");
+    let map = DisplayMap::new(exposure_scale);
     out.par_iter_mut()
         .zip(color)
         .map(|(p, c)| {
@@ -20,7 +22,7 @@ pub fn to_display(color: &[Vec3], exposure_scale: f32, out: &mut [u32]) -> usize
                 *p = 0;
                 return 1;
             }
-            let [r, g, b] = output::display_rgb8(*c, exposure_scale);
+            let [r, g, b] = map.rgb8(*c);
             *p = (r as u32) << 16 | (g as u32) << 8 | b as u32;
             0
         })
@@ -73,7 +75,7 @@ mod tests {
         let mut out = [0x00ff_ffffu32; 4];
         assert_eq!(to_display(&color, 1.0, &mut out), 3);
         assert_eq!([out[0], out[2], out[3]], [0, 0, 0]);
-        let [r, g, b] = output::display_rgb8(Vec3::splat(0.5), 1.0);
+        let [r, g, b] = crate::display::display_rgb8(Vec3::splat(0.5), 1.0);
         assert_eq!(out[1], (r as u32) << 16 | (g as u32) << 8 | b as u32);
         assert_ne!(out[1], 0);
     }
