@@ -7,8 +7,8 @@
 //! taken on those values, so an EXR and a PNG are never mixed. FLIP is the
 //! LDR FLIP of `nv-flip` (NVIDIA's reference code), which takes sRGB images:
 //! a PNG goes in as its bytes, an EXR through the renderer's own display
-//! transform at exposure 0 (`display::display_rgb8`, by its table `DisplayMap`), as `render` would
-//! have written it to PNG.
+//! transform at exposure 0 (`display::DisplayMap`), as `render` would have
+//! written it to PNG.
 
 use crate::display::DisplayMap;
 use crate::report::stats::rel_mse;

