@@ -12,9 +12,8 @@ use std::path::{Path, PathBuf};
 /// transform as PNG output. A pixel with any non-finite channel is shown
 /// black: no NaN reaches the screen whatever the renderer hands over.
 /// Returns how many pixels were non-finite, so the caller can say so.
-pub fn to_display(color: &[Vec3], exposure_scale: f32, out: &mut [u32]) -> usize {
+pub fn to_display(color: &[Vec3], map: &DisplayMap, out: &mut [u32]) -> usize {
     assert_eq!(color.len(), out.len(), "frame and window sizes agree");
-    let map = DisplayMap::new(exposure_scale);
     out.par_iter_mut()
         .zip(color)
         .map(|(p, c)| {
@@ -73,7 +72,7 @@ mod tests {
             Vec3::new(0.5, 0.5, f32::NEG_INFINITY),
         ];
         let mut out = [0x00ff_ffffu32; 4];
-        assert_eq!(to_display(&color, 1.0, &mut out), 3);
+        assert_eq!(to_display(&color, &DisplayMap::new(1.0), &mut out), 3);
         assert_eq!([out[0], out[2], out[3]], [0, 0, 0]);
         let [r, g, b] = crate::display::display_rgb8(Vec3::splat(0.5), 1.0);
         assert_eq!(out[1], (r as u32) << 16 | (g as u32) << 8 | b as u32);

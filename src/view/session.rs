@@ -7,6 +7,7 @@ use super::input::{Action, FrameInput};
 use super::overlay::{self, FrameTiming, Readout};
 use super::present;
 use super::scale::DynamicScale;
+use crate::display::DisplayMap;
 use crate::render::{self, Frame, FramePlan, Mode, PhaseTimes, RenderSettings, Upscaled, World};
 use crate::scene::Camera;
 use glam::Vec3;
@@ -31,7 +32,8 @@ pub struct Session {
     pub upscaled: Option<Upscaled>,
     /// The window's pixels, 0RGB, the shown size (see `shown_size`).
     pub pixels: Vec<u32>,
-    exposure_scale: f32,
+    /// The display transform at the session's exposure.
+    display: DisplayMap,
     pub overlay: bool,
     help: bool,
     /// `reference`: samples per pixel accumulated on the current view.
@@ -65,7 +67,7 @@ impl Session {
             pixels: vec![0; frame.pixel_count()],
             frame,
             upscaled: None,
-            exposure_scale: exposure.exp2(),
+            display: DisplayMap::new(exposure.exp2()),
             overlay,
             help: false,
             accumulated: 0,
@@ -250,7 +252,7 @@ impl Session {
     /// Must run inside the rayon pool.
     pub fn compose(&mut self) {
         let color = render::shown(&self.frame, self.upscaled.as_ref());
-        let bad = present::to_display(color, self.exposure_scale, &mut self.pixels);
+        let bad = present::to_display(color, &self.display, &mut self.pixels);
         if bad > 0 && self.non_finite == 0 {
             eprintln!("penumbra: the renderer produced non-finite pixels; they are shown black");
         }
