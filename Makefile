@@ -9,7 +9,7 @@ APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 .PHONY: run test test-embree4 deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun golden-bless
 
 # No target CPU is forced: one build runs on any x86-64 CPU, and its hot
-# loops pick AVX-512, AVX2 or baseline at run time (src/isa.rs;
+# loops pick AVX-512, AVX2 or baseline at run time (crates/isa/src/lib.rs;
 # PENUMBRA_ISA=baseline|avx2|avx512 caps the level).
 
 # Installs missing Debian packages when root or sudo is available.
@@ -30,18 +30,21 @@ run: build
 	@if [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ]; then $(BIN) view; \
 	else mkdir -p out && $(BIN) render --frames 16 --out out/default.png && echo "no display: rendered the built-in scene to out/default.png"; fi
 
+# Every crate's tests: unit tests, each crate's tests/ (the renderer's in
+# tests/integration/, the binding's in crates/embree/tests/) and doc tests.
 test: deps
-	$(CARGO) test --release
+	$(CARGO) test --release --workspace
 
 # The Embree 4 leg (docs/embree.md): fetches Embree 4 into target/embree4,
-# builds against it in target/embree4-build, runs the Embree tests there and
-# checks every shipped scene's frames against the Embree 3 build's.
+# builds against it in the same target dir (only the crates above the
+# binding are built again), runs the binding's tests against it and checks
+# every shipped scene's frames against the Embree 3 build's.
 test-embree4: deps
 	scripts/embree4-test.sh
 
 lint: deps
 	$(CARGO) fmt --all -- --check
-	$(CARGO) clippy --release --all-targets -- -D warnings
+	$(CARGO) clippy --release --workspace --all-targets -- -D warnings
 
 # Criterion micro-benchmarks (numbers only: the benches turn criterion's HTML
 # plots off, which panicked for want of a font), then speed against error on the shipped scenes,

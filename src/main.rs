@@ -289,9 +289,7 @@ fn main() -> ExitCode {
         Command::Render(a) => cmd_render(a),
         Command::View(a) => penumbra::view::run(view_options(a)),
         Command::Bench(a) => cmd_bench(a),
-        Command::FitLtc(a) => {
-            penumbra::shading::ltc_fit::run_fit(a.size, &a.out, a.heatmap.as_deref())
-        }
+        Command::FitLtc(a) => penumbra::fit_ltc::run_fit(a.size, &a.out, a.heatmap.as_deref()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,7 +8,6 @@ mod support;
 mod cli;
 mod compare;
 mod denoise;
-mod embree;
 mod golden;
 mod ltc;
 mod render;

@@ -2,7 +2,6 @@
 //! measures here; each area's own fixtures in the module named after it.
 
 pub mod denoise;
-pub mod embree;
 pub mod ltc;
 pub mod rng;
 pub mod sampling;

@@ -66,38 +66,3 @@ impl XorShift64 {
         }
     }
 }
-
-/// xorshift64* (seed 0 becomes 1).
-pub struct XorShift64Star(u64);
-
-impl XorShift64Star {
-    pub fn new(seed: u64) -> Self {
-        XorShift64Star(seed.max(1))
-    }
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    /// Uniform in [0, 1).
-    pub fn f32(&mut self) -> f32 {
-        unit_f32(self.next_u64())
-    }
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-    pub fn vec3(&mut self, lo: f32, hi: f32) -> Vec3 {
-        Vec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
-    }
-    /// Uniform direction on the unit sphere.
-    pub fn dir(&mut self) -> Vec3 {
-        loop {
-            let v = self.vec3(-1.0, 1.0);
-            let l = v.length_squared();
-            if l > 1e-4 && l <= 1.0 {
-                return v / l.sqrt();
-            }
-        }
-    }
-}

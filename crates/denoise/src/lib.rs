@@ -1,0 +1,393 @@
+//! Joint denoiser for the ratio estimator: `U_N` and `S_N` are filtered with
+//! exactly the same per-pixel weights, so `denoise(S_N) / denoise(U_N)` is a
+//! weighted average of the same samples on top and bottom (Heitz et al. 2018).
+//!
+//! One call runs, in order:
+//! 1. [`temporal`]: reproject last frame's accumulation (bilinear, every tap
+//!    validated against depth, normal and tangent plane), reject it where the
+//!    analytic `U` changed, blend with one factor per pixel for both signals.
+//! 2. [`tiles`]: classify 8x8 tiles whose ratio is exactly 1 (lit) or 0
+//!    (shadowed) everywhere; such a tile whose neighbours are uniform too is
+//!    skipped by the spatial filter (FidelityFX shadow denoiser idea).
+//! 3. [`noise`]: per pixel, a noise estimate of the ratio (temporal moments, or
+//!    spatial moments while the history is short) sets how many à-trous levels
+//!    the pixel needs: clean pixels (long history, constant ratio) get none.
+//! 4. [`spatial`]: edge-aware à-trous (3x3 taps, step doubling per level),
+//!    weights from plane distance, normal, `U` luminance, the ratio and the
+//!    specular lobe (`lobe`: a near-mirror's sharp reflected shadow is not
+//!    averaged with its neighbours'), computed once per tap and applied to
+//!    both signals.
+//!
+//! After the composite, [`resolve`] averages the finished colour over
+//! jittered frames (TAA); it is a separate stage and never touches `U_N`/`S_N`.
+//! [`upscale`] is the same stage for frames rendered below the output's
+//! size: its history has the output's size.
+//!
+//! Depends only on `glam` and `rayon`; all buffers are allocated on the first
+//! frame (or a resize) and reused afterwards.
+
+mod history;
+mod lobe;
+mod noise;
+mod resolve;
+mod spatial;
+mod temporal;
+mod tiles;
+mod upscale;
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use std::time::Instant;
+
+pub use lobe::Lobe;
+pub use resolve::{CameraMotion, Resolve, ResolveSettings};
+pub use spatial::falloff;
+pub use tiles::TILE;
+pub use upscale::Upscale;
+
+/// Per-pixel guides the renderer fills each frame (row-major, row 0 on top).
+pub struct GuideBuffers<'a> {
+    pub width: u32,
+    pub height: u32,
+    /// World-space hit point.
+    pub position: &'a [Vec3],
+    /// Unit normal facing the camera; zero where there is no surface.
+    pub normal: &'a [Vec3],
+    /// Distance from the eye; 0 means no surface: the pixel passes through
+    /// unchanged and keeps no history.
+    pub depth: &'a [f32],
+    /// Where this point was in the previous frame, continuous pixel
+    /// coordinates with pixel centres at +0.5.
+    pub prev_pixel: &'a [Vec2],
+    /// False where no reprojection is possible.
+    pub prev_valid: &'a [bool],
+    /// Analytic unshadowed light `U` (noise-free): edge guide, and the detector
+    /// of light changes for the history.
+    pub u: &'a [Vec3],
+    /// Specular lobe per pixel (see [`Lobe`]): taps whose mirror directions
+    /// lie lobe widths apart are not averaged. Empty: no lobe guide (every
+    /// pixel treated as diffuse).
+    pub lobe: &'a [Lobe],
+}
+
+/// Knobs of the denoiser. `Default` gives the tuned values.
+#[derive(Clone, Debug)]
+pub struct DenoiseSettings {
+    /// Temporal accumulation on/off (off: each frame stands alone).
+    pub temporal: bool,
+    /// Spatial à-trous filter on/off.
+    pub spatial: bool,
+    /// History cap in frames: the blend factor never drops below 1/this, so
+    /// changes the `U` test cannot see (a moving occluder) fade in that long.
+    pub max_history: u16,
+    /// Reprojection tap rejected when |d_prev - d| > this * d.
+    pub depth_tolerance: f32,
+    /// Reprojection tap rejected when dot(n_prev, n) < this.
+    pub min_normal_dot: f32,
+    /// Reprojection tap rejected when the previous point lies farther than
+    /// this * d from the current tangent plane.
+    pub plane_tolerance: f32,
+    /// History dropped when the luminance of `U`'s diffuse part (of the
+    /// whole `U` where that part is under 2 % of it) changed by more than
+    /// this fraction (a light moved or was edited; see `temporal`).
+    pub u_change: f32,
+    /// The per-pixel light test above on/off. Off under a still, jittered
+    /// camera: there `U` changes between frames only because the jitter
+    /// moved the ray inside the pixel (a highlight on a normal-mapped floor
+    /// varies by far more than 25 % within a pixel), and the renderer drops
+    /// the whole history when the scene's lights change.
+    pub light_test: bool,
+    /// Most à-trous levels (3x3 taps at steps 1, 2, 4, ...: radius 2^n - 1).
+    pub max_levels: u8,
+    /// Every surface pixel gets at least this many levels (0 = fully adaptive;
+    /// above 0 also disables tile skipping). For tests and debugging views.
+    pub min_levels: u8,
+    /// Standard deviation of the ratio considered clean: a pixel gets levels
+    /// until its estimated noise, halved per level, falls below this.
+    pub noise_target: f32,
+    /// Ratio edge-stopping: taps whose ratio differs by more than about this
+    /// many noise deviations are dropped.
+    pub sigma_ratio: f32,
+    /// Plane edge-stopping: sine of the angle between the tangent plane and
+    /// the direction to the tap.
+    pub sigma_plane: f32,
+    /// Normal edge-stopping: weight falls with (1 - dot) * this.
+    pub normal_power: f32,
+    /// `U` edge-stopping: relative luminance difference of `U`.
+    pub sigma_u: f32,
+    /// Lobe edge-stopping: weight falls with this times the squared
+    /// separation of the mirror directions in lobe widths (0: off).
+    pub lobe_scale: f32,
+    /// Skip tiles whose ratio is uniformly 0 or 1 (and whose neighbours are
+    /// uniform too).
+    pub skip_tiles: bool,
+}
+
+impl Default for DenoiseSettings {
+    fn default() -> Self {
+        DenoiseSettings {
+            temporal: true,
+            spatial: true,
+            max_history: 32,
+            depth_tolerance: 0.1,
+            min_normal_dot: 0.9,
+            plane_tolerance: 0.02,
+            u_change: 0.25,
+            light_test: true,
+            max_levels: 4,
+            min_levels: 0,
+            noise_target: 0.02,
+            sigma_ratio: 3.0,
+            sigma_plane: 0.1,
+            normal_power: 64.0,
+            sigma_u: 0.3,
+            lobe_scale: 10.0,
+            skip_tiles: true,
+        }
+    }
+}
+
+/// What one call cost and skipped.
+#[derive(Clone, Debug, Default)]
+pub struct DenoiseStats {
+    pub temporal_ms: f64,
+    /// Tile classification, noise estimate and à-trous levels.
+    pub spatial_ms: f64,
+    pub tiles_skipped: usize,
+    pub tiles_total: usize,
+    /// À-trous levels run this frame (the most any pixel needed).
+    pub levels: u8,
+}
+
+/// Denoiser state: the history of the previous frame and scratch buffers.
+pub struct Denoiser {
+    width: u32,
+    height: u32,
+    /// `prev` is read by reprojection while `cur` is written; swapped per frame.
+    prev: history::History,
+    cur: history::History,
+    /// Position, normal and `U` luminance (negative: no surface) per pixel,
+    /// packed so that one à-trous tap reads one small record instead of
+    /// three arrays.
+    guides: Vec<spatial::Guide>,
+    /// Ratio of the accumulated signals per pixel (from the temporal pass),
+    /// and of the two ping-pong buffers of the à-trous levels: computed once
+    /// per pixel and level instead of once per tap.
+    ratio_cur: Vec<f32>,
+    ratio_scratch: Vec<f32>,
+    ratio_out: Vec<f32>,
+    /// Raw (this frame only) ratio per pixel, for the spatial noise estimate.
+    raw_ratio: Vec<f32>,
+    /// Class bits per pixel row and tile column (see `tiles`).
+    row_class: Vec<u8>,
+    /// Noise deviation of the accumulated ratio per pixel.
+    sigma: Vec<f32>,
+    /// À-trous levels each pixel needs.
+    levels: Vec<u8>,
+    tiles: tiles::Tiles,
+    scratch_un: Vec<Vec3>,
+    scratch_sn: Vec<Vec3>,
+}
+
+pub use penumbra_scene::color::luminance;
+
+/// Ratio of luminances in [0, 1]. Where `U_N` carries no light the ratio is
+/// defined as 1 (nothing is known to be blocked), never a division by zero.
+#[inline(always)]
+pub fn luminance_ratio(sn: Vec3, un: Vec3) -> f32 {
+    let lu = luminance(un);
+    if lu > 1e-30 && lu.is_finite() {
+        (luminance(sn) / lu).clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
+impl Denoiser {
+    pub fn new(width: u32, height: u32) -> Denoiser {
+        let n = width as usize * height as usize;
+        Denoiser {
+            width,
+            height,
+            prev: history::History::new(n),
+            cur: history::History::new(n),
+            guides: vec![spatial::Guide::default(); n],
+            ratio_cur: vec![0.0; n],
+            ratio_scratch: vec![0.0; n],
+            ratio_out: vec![0.0; n],
+            raw_ratio: vec![0.0; n],
+            row_class: vec![0; height as usize * (width as usize).div_ceil(TILE)],
+            sigma: vec![0.0; n],
+            levels: vec![0; n],
+            tiles: tiles::Tiles::new(width, height),
+            scratch_un: vec![Vec3::ZERO; n],
+            scratch_sn: vec![Vec3::ZERO; n],
+        }
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Drops the history (mode switch, camera cut, scene edit).
+    pub fn reset(&mut self) {
+        self.prev.clear();
+        self.cur.clear();
+    }
+
+    /// History length (frames accumulated, capped) per pixel after the last
+    /// call; 0 where there is no surface. For debug views and tests.
+    pub fn history_len(&self) -> Vec<f32> {
+        // After a call the freshest history sits in `prev` (swapped at the end).
+        self.prev.meta.iter().map(|m| m.len).collect()
+    }
+
+    /// Denoises `un` and `sn` in place with identical per-pixel weights (the
+    /// temporal blend included); runs on the current rayon pool. A size change
+    /// reallocates and drops the history.
+    pub fn denoise(
+        &mut self,
+        guide: &GuideBuffers,
+        un: &mut [Vec3],
+        sn: &mut [Vec3],
+        settings: &DenoiseSettings,
+    ) -> DenoiseStats {
+        self.denoise_sparse(guide, un, sn, &[], settings)
+    }
+
+    /// The tiles (`TILE` x `TILE`, row-major) that need no new samples: after
+    /// the last call they and their 8 neighbours are exactly lit or exactly
+    /// in umbra, and every pixel of theirs holds at least `min_history`
+    /// frames. Per tile its class (nonzero) or 0; empty before the first
+    /// call or after a size change.
+    pub fn settled_tiles(&self, min_history: f32) -> Vec<u8> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let tw = self.tiles.columns();
+        if self.prev.meta.len() != w * h || self.tiles.count() == 0 {
+            return Vec::new();
+        }
+        // After a call the freshest history sits in `prev`.
+        let meta = &self.prev.meta;
+        (0..self.tiles.count())
+            .into_par_iter()
+            .map(|t| {
+                let (tx, ty) = (t % tw, t / tw);
+                if !self.tiles.skipped(tx, ty) {
+                    return 0;
+                }
+                let long = (ty * TILE..((ty + 1) * TILE).min(h)).all(|y| {
+                    (tx * TILE..((tx + 1) * TILE).min(w)).all(|x| {
+                        let m = &meta[y * w + x];
+                        m.depth <= 0.0 || m.len >= min_history
+                    })
+                });
+                if long { self.tiles.class(t) } else { 0 }
+            })
+            .collect()
+    }
+
+    /// `denoise` where the tiles `unsampled` marks (as `settled_tiles`
+    /// gives them) drew no samples this frame: their pixels keep their
+    /// history as it is.
+    pub fn denoise_sparse(
+        &mut self,
+        guide: &GuideBuffers,
+        un: &mut [Vec3],
+        sn: &mut [Vec3],
+        unsampled: &[u8],
+        settings: &DenoiseSettings,
+    ) -> DenoiseStats {
+        let n = guide.width as usize * guide.height as usize;
+        assert!(
+            guide.position.len() == n
+                && guide.normal.len() == n
+                && guide.depth.len() == n
+                && guide.prev_pixel.len() == n
+                && guide.prev_valid.len() == n
+                && guide.u.len() == n
+                && (guide.lobe.is_empty() || guide.lobe.len() == n)
+                && un.len() == n
+                && sn.len() == n,
+            "denoise: every buffer must hold width * height pixels (the lobe guide may be empty)"
+        );
+        if guide.width != self.width || guide.height != self.height {
+            *self = Denoiser::new(guide.width, guide.height);
+        }
+        let mut stats = DenoiseStats {
+            tiles_total: self.tiles.count(),
+            ..DenoiseStats::default()
+        };
+        if n == 0 {
+            return stats;
+        }
+
+        let t0 = Instant::now();
+        temporal::accumulate(
+            guide,
+            &self.prev,
+            &mut self.cur,
+            &mut self.guides,
+            &mut self.ratio_cur,
+            &mut self.raw_ratio,
+            &mut self.row_class,
+            un,
+            sn,
+            if unsampled.len() == self.tiles.count() {
+                unsampled
+            } else {
+                &[]
+            },
+            settings,
+        );
+        let t1 = Instant::now();
+        stats.temporal_ms = (t1 - t0).as_secs_f64() * 1e3;
+
+        if settings.spatial {
+            let skip = settings.skip_tiles && settings.min_levels == 0;
+            stats.tiles_skipped = self
+                .tiles
+                .classify(&self.row_class, guide.height as usize, skip);
+            stats.levels = noise::estimate(
+                guide,
+                &self.cur,
+                &self.raw_ratio,
+                &self.tiles,
+                &mut self.sigma,
+                &mut self.levels,
+                settings,
+            );
+            let inputs = spatial::Inputs {
+                width: guide.width as usize,
+                guides: &self.guides,
+                sigma: &self.sigma,
+                levels: &self.levels,
+                tiles: &self.tiles,
+            };
+            spatial::filter(
+                &inputs,
+                &self.cur,
+                &self.ratio_cur,
+                stats.levels,
+                spatial::Signals {
+                    un,
+                    sn,
+                    ratio: &mut self.ratio_out,
+                },
+                spatial::Signals {
+                    un: &mut self.scratch_un,
+                    sn: &mut self.scratch_sn,
+                    ratio: &mut self.ratio_scratch,
+                },
+                settings,
+            );
+            stats.spatial_ms = t1.elapsed().as_secs_f64() * 1e3;
+        }
+
+        std::mem::swap(&mut self.prev, &mut self.cur);
+        stats
+    }
+}

@@ -1,0 +1,325 @@
+//! The band pass: primary rays, `U`, samples and shadow rays for a band
+//! of rows at a time, over rayon, each band's buffers kept in cache
+//! between the steps that read them.
+
+use super::Frame;
+use super::clock::PhaseClock;
+use super::composite::shade;
+use super::quarter::{QuadBand, quad_bands, quad_count, sample_quads};
+use super::settings::RenderSettings;
+use crate::estimate::{Estimator, SampleSink, SampleStream, analytic_u_band, draw_samples};
+use crate::gbuffer::GSample;
+use crate::guides::GuideMut;
+use crate::plan::{FramePlan, ResolveInput, VisibilityRate};
+use crate::primary::{PACKET_H, PixelOffset, trace_rows};
+use crate::quads::{QUAD_ORDER, Quads};
+use crate::shadow::{PacketWidth, ShadowBatch};
+use crate::world::World;
+use glam::Vec3;
+use penumbra_denoise::TILE;
+use penumbra_scene::CameraFrame;
+use rayon::prelude::*;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+/// Rows per parallel work item: two packet rows, so a band's G-buffer stays
+/// in cache between the passes that read it. Even, so no quad straddles two
+/// bands.
+pub const BAND_ROWS: u32 = 2 * PACKET_H;
+
+/// What a band pass computes: where its camera rays go and which samples
+/// it draws. The same steps serve every plan, the reference included.
+#[derive(Clone, Copy)]
+pub(super) struct BandJob<'a, 'd> {
+    pub(super) world: &'a World<'d>,
+    pub(super) cam: &'a CameraFrame,
+    pub(super) prev: &'a CameraFrame,
+    pub(super) offset: PixelOffset,
+    /// `None`: no samples (`U` only).
+    pub(super) estimator: Option<Estimator>,
+    pub(super) first_sample: u32,
+    pub(super) spp: u32,
+    pub(super) seed: u32,
+    pub(super) packet: PacketWidth,
+    pub(super) light_tolerance: f32,
+    pub(super) clock: &'a PhaseClock,
+}
+
+impl BandJob<'_, '_> {
+    /// The samples pixel `pixel` draws this frame.
+    pub(super) fn stream(&self, pixel: u32) -> SampleStream {
+        SampleStream {
+            pixel,
+            first: self.first_sample,
+            count: self.spp,
+            seed: self.seed,
+        }
+    }
+
+    /// Primary rays and `U` per light for the band starting at row `y0`.
+    /// Returns the time it finished, for the next stage's clock.
+    pub(super) fn primary_and_u(
+        &self,
+        y0: u32,
+        scratch: &mut BandScratch,
+        gbuf: &mut [GSample],
+        u: &mut [Vec3],
+    ) -> Instant {
+        let (world, clock) = (self.world, self.clock);
+        let t = Instant::now();
+        trace_rows(world, self.cam, self.prev, y0, self.offset, gbuf);
+        let t = PhaseClock::add(&clock.primary, t);
+        let lights = world.lights.len();
+        scratch.per_light.resize(gbuf.len() * lights, Vec3::ZERO);
+        scratch.spec_share.resize(gbuf.len(), 0.0);
+        let counts = analytic_u_band(
+            world,
+            gbuf,
+            self.cam.width as usize,
+            self.light_tolerance,
+            &mut scratch.per_light,
+            u,
+            &mut scratch.spec_share,
+        );
+        clock.count_u(&counts);
+        PhaseClock::add(&clock.u, t)
+    }
+
+    /// Samples and shadow rays of the band's pixels `pixels`, pairs of an
+    /// index into the band (whose first row is `y0`) and the slot `m` its
+    /// samples add to: `un[m]` and, when unoccluded, `sn[m]`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn samples(
+        &self,
+        y0: u32,
+        scratch: &mut BandScratch,
+        gbuf: &[GSample],
+        u: &[Vec3],
+        pixels: impl Iterator<Item = (usize, usize)>,
+        un: &mut [Vec3],
+        sn: &mut [Vec3],
+        since: Instant,
+    ) -> Instant {
+        un.fill(Vec3::ZERO);
+        sn.fill(Vec3::ZERO);
+        let Some(est) = self.estimator else {
+            return since;
+        };
+        let world = self.world;
+        let lights = world.lights.len();
+        scratch.batch.clear();
+        let width = self.cam.width;
+        for (k, m) in pixels {
+            draw_samples(
+                world,
+                &gbuf[k],
+                &scratch.per_light[k * lights..(k + 1) * lights],
+                u[k],
+                est,
+                self.stream(y0 * width + k as u32),
+                &mut SampleSink {
+                    un: &mut un[m],
+                    batch: &mut scratch.batch,
+                    slot: m as u32,
+                    trace: None,
+                },
+            );
+        }
+        scratch
+            .batch
+            .trace(&world.rt, self.packet, |r| sn[r.slot as usize] += r.weight);
+        self.clock
+            .shadow_rays
+            .fetch_add(scratch.batch.rays.len() as u64, Ordering::Relaxed);
+        PhaseClock::add(&self.clock.shadow, since)
+    }
+
+    /// Primary rays, `U`, then samples at every pixel of the band.
+    pub(super) fn run(
+        &self,
+        y0: u32,
+        scratch: &mut BandScratch,
+        gbuf: &mut [GSample],
+        u: &mut [Vec3],
+        un: &mut [Vec3],
+        sn: &mut [Vec3],
+    ) -> Instant {
+        let t = self.primary_and_u(y0, scratch, gbuf, u);
+        let n = gbuf.len();
+        self.samples(y0, scratch, gbuf, u, (0..n).map(|k| (k, k)), un, sn, t)
+    }
+}
+
+/// Per-thread working memory, reused across bands.
+#[derive(Default)]
+pub(super) struct BandScratch {
+    /// Analytic `U` of each light at each pixel of the band.
+    pub(super) per_light: Vec<Vec3>,
+    /// Share of the specular lobe in each pixel's `U` (luminance).
+    pub(super) spec_share: Vec<f32>,
+    pub(super) batch: ShadowBatch,
+    /// Band pixels sampled this frame (reduced rate).
+    pub(super) sampled: Vec<usize>,
+}
+
+impl Frame {
+    /// The band pass: primary rays, `U`, samples and shadow rays at the
+    /// plan's rate, the guides, and (when nothing is denoised) the colour.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn band_pass(
+        &mut self,
+        world: &World,
+        (cam, prev): (&CameraFrame, &CameraFrame),
+        offset: PixelOffset,
+        settings: &RenderSettings,
+        plan: &FramePlan,
+        unsampled: &[u8],
+        clock: &PhaseClock,
+    ) {
+        let job = BandJob {
+            world,
+            cam,
+            prev,
+            offset,
+            estimator: plan.estimator,
+            first_sample: self.first_sample(plan.rate, settings.spp),
+            spp: settings.spp,
+            seed: settings.seed,
+            packet: settings.packet,
+            light_tolerance: settings.light_tolerance,
+            clock,
+        };
+        let (width, height) = (self.width, self.height);
+        let quarter = plan.rate == VisibilityRate::Quarter;
+        if quarter
+            && self
+                .quads
+                .as_ref()
+                .is_none_or(|q| q.un.len() != quad_count(width, height))
+        {
+            self.quads = Some(Quads::new(width, height));
+        }
+        let quad_offset = QUAD_ORDER[(self.frame_index % 4) as usize];
+        // Taken out while the bands borrow the frame's buffers.
+        let mut quad_buffers = self.quads.take();
+        if let Some(q) = quad_buffers.as_mut() {
+            q.offset = quad_offset;
+        }
+        let mut quad_bands = quad_buffers
+            .as_mut()
+            .filter(|_| quarter)
+            .map(|q| quad_bands(q).into_iter());
+        let bands: Vec<(BandMut, Option<QuadBand>)> = self
+            .bands()
+            .into_iter()
+            .map(|b| (b, quad_bands.as_mut().and_then(|q| q.next())))
+            .collect();
+        bands
+            .into_par_iter()
+            .for_each_init(BandScratch::default, |scratch, (mut band, quad)| {
+                let n = band.gbuf.len();
+                let mut t = job.primary_and_u(band.y0, scratch, band.gbuf, band.u);
+                match quad {
+                    Some(mut q) => {
+                        t = sample_quads(&job, scratch, &mut band, &mut q, quad_offset, t);
+                    }
+                    None => {
+                        let (w, row0) = (width as usize, band.y0 as usize);
+                        let tiles_w = w.div_ceil(TILE);
+                        // Settled tiles draw nothing this frame (`settled_tiles`).
+                        let drawn = (0..n)
+                            .filter(|&k| {
+                                let (x, y) = (k % w, row0 + k / w);
+                                unsampled.is_empty()
+                                    || unsampled[(y / TILE) * tiles_w + x / TILE] == 0
+                            })
+                            .map(|k| (k, k));
+                        t = job.samples(
+                            band.y0, scratch, band.gbuf, band.u, drawn, band.un, band.sn, t,
+                        );
+                    }
+                }
+                if plan.needs_guides() {
+                    for (k, g) in band.gbuf.iter().enumerate() {
+                        band.guide.set(k, g, scratch.spec_share[k], g.prev_pixel);
+                    }
+                }
+                // The resolve's factor, while the band is in cache (an
+                // undenoised frame's is its colour, filled below).
+                match plan.resolve {
+                    Some(ResolveInput::Modulated) => {
+                        for (k, g) in band.gbuf.iter().enumerate() {
+                            band.resolve_in[k] = g.emission + band.u[k];
+                        }
+                    }
+                    Some(ResolveInput::Additive) => {
+                        for (k, g) in band.gbuf.iter().enumerate() {
+                            band.resolve_in[k] = g.emission;
+                        }
+                    }
+                    Some(ResolveInput::Whole) | None => {}
+                }
+                if !plan.denoise {
+                    for k in 0..n {
+                        band.color[k] = shade(
+                            plan.composite,
+                            &band.gbuf[k],
+                            band.u[k],
+                            band.un[k],
+                            band.sn[k],
+                        );
+                    }
+                    if plan.resolve == Some(ResolveInput::Whole) {
+                        band.resolve_in.copy_from_slice(band.color);
+                    }
+                } else if plan.filter_against_u {
+                    band.un.copy_from_slice(band.u);
+                }
+                PhaseClock::add(&clock.composite, t);
+            });
+        self.quads = quad_buffers;
+    }
+
+    /// Splits every per-pixel buffer into the same bands of rows.
+    pub(super) fn bands(&mut self) -> Vec<BandMut<'_>> {
+        let n = (BAND_ROWS * self.width).max(1) as usize;
+        let mut guides = self.guide.bands(BAND_ROWS);
+        self.gbuf
+            .chunks_mut(n)
+            .zip(self.u.chunks_mut(n))
+            .zip(self.un.chunks_mut(n))
+            .zip(self.sn.chunks_mut(n))
+            .zip(self.color.chunks_mut(n))
+            .zip(self.resolve_in.chunks_mut(n))
+            .enumerate()
+            .map(
+                |(b, (((((gbuf, u), un), sn), color), resolve_in))| BandMut {
+                    y0: b as u32 * BAND_ROWS,
+                    width: self.width,
+                    gbuf,
+                    u,
+                    un,
+                    sn,
+                    color,
+                    resolve_in,
+                    guide: guides.next().expect("guides have the same bands"),
+                },
+            )
+            .collect()
+    }
+}
+
+/// One band of rows of every per-pixel buffer.
+pub(super) struct BandMut<'a> {
+    pub(super) y0: u32,
+    #[allow(dead_code)]
+    pub(super) width: u32,
+    pub(super) gbuf: &'a mut [GSample],
+    pub(super) u: &'a mut [Vec3],
+    pub(super) un: &'a mut [Vec3],
+    pub(super) sn: &'a mut [Vec3],
+    pub(super) color: &'a mut [Vec3],
+    /// The resolve's noise-free factor (see `ResolveInput`).
+    pub(super) resolve_in: &'a mut [Vec3],
+    pub(super) guide: GuideMut<'a>,
+}

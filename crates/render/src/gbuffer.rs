@@ -1,0 +1,187 @@
+//! The G-buffer: what the camera ray of each pixel found, with the material
+//! already resolved (textures looked up, normal map applied), so that later
+//! stages never touch meshes or textures.
+
+use super::world::{GeomRef, World};
+use glam::{Vec2, Vec3};
+use penumbra_scene::CameraFrame;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PixelKind {
+    /// The camera ray left the scene.
+    #[default]
+    Miss,
+    /// A receiver surface (mesh).
+    Surface,
+    /// A light's emitting side, or its dark back side.
+    Light,
+}
+
+/// One pixel of the G-buffer.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GSample {
+    pub kind: PixelKind,
+    /// World-space hit point, interpolated from the triangle's vertices (more
+    /// precise than eye + t * dir far from the eye).
+    pub position: Vec3,
+    /// Unit geometric normal, flipped to face the camera.
+    pub ng: Vec3,
+    /// Unit shading normal (interpolated, normal-mapped), on the camera's side of `ng`.
+    pub ns: Vec3,
+    /// Unit direction from the hit toward the eye.
+    pub wo: Vec3,
+    /// Distance from the eye along the unit camera ray; 0 on a miss.
+    pub depth: f32,
+    pub uv: Vec2,
+    /// Index of the material (surfaces) or light (lights).
+    pub material: u32,
+    /// Resolved material parameters (maps applied).
+    pub diffuse: Vec3,
+    pub specular: Vec3,
+    pub roughness: f32,
+    /// Radiance the camera sees directly (light pixels only).
+    pub emission: Vec3,
+    /// Where this point was in the previous frame's camera, in continuous
+    /// pixel coordinates (the current camera stands in for the first frame).
+    pub prev_pixel: Vec2,
+    /// False when the point was behind the previous camera (no history).
+    pub prev_valid: bool,
+}
+
+/// Resolves an Embree hit into a G-buffer sample.
+#[allow(clippy::too_many_arguments)]
+pub fn resolve_hit(
+    world: &World,
+    geom_id: u32,
+    prim_id: u32,
+    b1: f32,
+    b2: f32,
+    t: f32,
+    dir: Vec3,
+    prev: &CameraFrame,
+) -> GSample {
+    let Some(geom) = world.geom(geom_id) else {
+        return GSample::default();
+    };
+    match geom {
+        GeomRef::Light(li) => {
+            let light = &world.lights.declared()[li as usize];
+            let position = world.scene.camera.eye + dir * t;
+            let mut ng = light.normal;
+            let front = ng.dot(dir) < 0.0;
+            if !front {
+                ng = -ng;
+            }
+            let emission = if front || light.two_sided {
+                light.radiance
+            } else {
+                Vec3::ZERO
+            };
+            let mut s = GSample {
+                kind: PixelKind::Light,
+                position,
+                ng,
+                ns: ng,
+                wo: -dir,
+                depth: t,
+                material: li,
+                emission,
+                ..GSample::default()
+            };
+            set_motion(&mut s, prev);
+            s
+        }
+        GeomRef::Mesh(mi) => {
+            let mesh = &world.scene.meshes[mi as usize];
+            let Some(tri) = mesh.indices.get(prim_id as usize) else {
+                return GSample::default();
+            };
+            let [i0, i1, i2] = tri.map(|i| i as usize);
+            let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+            let b0 = 1.0 - b1 - b2;
+            let position = b0 * p0 + b1 * p1 + b2 * p2;
+            let e1 = p1 - p0;
+            let e2 = p2 - p0;
+            let mut ng = e1.cross(e2).normalize_or(-dir);
+            let mut ns = match &mesh.normals {
+                Some(n) => (b0 * n[i0] + b1 * n[i1] + b2 * n[i2]).normalize_or(ng),
+                None => ng,
+            };
+            // Two-sided surfaces: both normals turn to the camera's side.
+            if ng.dot(dir) > 0.0 {
+                ng = -ng;
+            }
+            if ns.dot(ng) < 0.0 {
+                ns = -ns;
+            }
+            let (uv, duv) = match &mesh.uvs {
+                Some(t) => {
+                    let (t0, t1, t2) = (t[i0], t[i1], t[i2]);
+                    (b0 * t0 + b1 * t1 + b2 * t2, Some((t1 - t0, t2 - t0)))
+                }
+                None => (Vec2::new(b1, b2), None),
+            };
+            let mat = &world.scene.materials[mesh.material as usize];
+            let mut diffuse = mat.diffuse;
+            if let Some(map) = &mat.diffuse_map {
+                let texel = map.sample(uv);
+                diffuse *= Vec3::new(texel[0], texel[1], texel[2]);
+            }
+            let roughness = match &mat.roughness_map {
+                Some(map) => map.sample(uv)[0].clamp(0.0, 1.0),
+                None => mat.roughness,
+            };
+            if let (Some(map), Some((d1, d2))) = (&mat.normal_map, duv) {
+                let texel = map.sample(uv);
+                let local = Vec3::new(texel[0], texel[1], texel[2]) * 2.0 - Vec3::ONE;
+                ns = apply_normal_map(ns, e1, e2, d1, d2, local);
+            }
+            let mut s = GSample {
+                kind: PixelKind::Surface,
+                position,
+                ng,
+                ns,
+                wo: -dir,
+                depth: t,
+                uv,
+                material: mesh.material,
+                diffuse,
+                specular: mat.specular,
+                roughness,
+                ..GSample::default()
+            };
+            set_motion(&mut s, prev);
+            s
+        }
+    }
+}
+
+/// Tangent-space normal `local` (+Y along increasing t, OpenGL convention)
+/// to world space, with the tangent frame derived from the triangle's uv
+/// parameterisation. Falls back to the unperturbed normal on degenerate uvs.
+fn apply_normal_map(ns: Vec3, e1: Vec3, e2: Vec3, d1: Vec2, d2: Vec2, local: Vec3) -> Vec3 {
+    let det = d1.x * d2.y - d2.x * d1.y;
+    if det.abs() < 1e-12 || !det.is_finite() {
+        return ns;
+    }
+    let inv = 1.0 / det;
+    let dpds = (e1 * d2.y - e2 * d1.y) * inv;
+    let dpdt = (e2 * d1.x - e1 * d2.x) * inv;
+    // Gram-Schmidt against the (possibly flipped) shading normal; the
+    // bitangent keeps the handedness the uv mapping has.
+    let Some(t) = (dpds - ns * ns.dot(dpds)).try_normalize() else {
+        return ns;
+    };
+    let mut b = ns.cross(t);
+    if b.dot(dpdt) < 0.0 {
+        b = -b;
+    }
+    (t * local.x + b * local.y + ns * local.z.max(0.0)).normalize_or(ns)
+}
+
+fn set_motion(s: &mut GSample, prev: &CameraFrame) {
+    if let Some((x, y)) = prev.project(s.position) {
+        s.prev_pixel = Vec2::new(x, y);
+        s.prev_valid = true;
+    }
+}

@@ -1,0 +1,141 @@
+//! A frame rendered below its output's size and brought to the output by
+//! the temporal upscale (`denoise::upscale`): the viewer's dynamic
+//! resolution and `render --render-scale`. Every stage of the frame runs at
+//! the render size; only the upscale's history has the output's size, so a
+//! change of render size keeps it.
+
+use super::frame::{Frame, PhaseTimes, RenderSettings};
+use super::plan::FramePlan;
+use super::world::World;
+use glam::Vec3;
+use penumbra_denoise::{CameraMotion, DenoiseSettings, ResolveSettings, Upscale};
+use penumbra_scene::{Camera, Light};
+use std::time::Instant;
+
+/// The render size for an output of `width` x `height` at `scale` of each
+/// side: at least 8 pixels a side (or the output's side, if smaller), at
+/// most the output's.
+pub fn scaled_size(width: u32, height: u32, scale: f32) -> (u32, u32) {
+    let scale = if scale.is_finite() {
+        scale.clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    let side = |n: u32| ((n as f32 * scale).round() as u32).clamp(8.min(n), n);
+    (side(width), side(height))
+}
+
+/// Renders one frame of `camera` into `frame`, upscaled into `target`'s
+/// output when there is one: the one step every caller (render, view,
+/// bench) takes, whichever way it shows frames.
+pub fn render_frame(
+    frame: &mut Frame,
+    target: Option<&mut Upscaled>,
+    world: &World,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> PhaseTimes {
+    match target {
+        Some(t) => t.render(frame, world, camera, settings),
+        None => frame.render(world, camera, settings),
+    }
+}
+
+/// The linear radiance shown: `target`'s output when there is one, else
+/// the frame's.
+pub fn shown<'a>(frame: &'a Frame, target: Option<&'a Upscaled>) -> &'a [Vec3] {
+    target.map_or(&frame.color, |t| &t.color)
+}
+
+/// The output side of an upscaled frame: the upscale's history and the
+/// output's colour. The frame itself stays its owner's, at the render size.
+pub struct Upscaled {
+    upscale: Upscale,
+    /// The output's linear radiance.
+    pub color: Vec<Vec3>,
+    prev_camera: Option<Camera>,
+    /// The previous frame's lights: new lights drop the output history as
+    /// they drop the frame's.
+    prev_lights: Vec<Light>,
+}
+
+impl Upscaled {
+    /// An output of `width` x `height`.
+    pub fn new(width: u32, height: u32) -> Upscaled {
+        Upscaled {
+            upscale: Upscale::new(width, height),
+            color: vec![Vec3::ZERO; width as usize * height as usize],
+            prev_camera: None,
+            prev_lights: Vec::new(),
+        }
+    }
+
+    pub fn output_size(&self) -> (u32, u32) {
+        self.upscale.size()
+    }
+
+    /// Forgets the output history (the frame's is its own to drop).
+    pub fn reset_history(&mut self) {
+        self.upscale.reset();
+        self.prev_camera = None;
+    }
+
+    /// Renders one frame of `camera` into `frame` (any size up to the
+    /// output's; a new size keeps the output history) and upscales it into
+    /// `color`. The upscale's time is added to the resolve's. Must run
+    /// inside the rayon pool that should do the work.
+    pub fn render(
+        &mut self,
+        frame: &mut Frame,
+        world: &World,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> PhaseTimes {
+        let settings = RenderSettings {
+            upscaled: true,
+            ..*settings
+        };
+        if world.lights.declared() != self.prev_lights {
+            self.upscale.reset();
+            self.prev_lights = world.lights.declared().to_vec();
+        }
+        let mut times = frame.render(world, camera, &settings);
+        let t = Instant::now();
+        let motion = FramePlan::of(&settings).jitter.then(|| {
+            if self.prev_camera == Some(*camera) {
+                CameraMotion::Still
+            } else {
+                CameraMotion::Moved
+            }
+        });
+        self.upscale.resolve(
+            &frame.guides(),
+            &frame.color,
+            frame.jitter,
+            motion,
+            &ResolveSettings::default(),
+            &DenoiseSettings::default(),
+            &mut self.color,
+        );
+        self.prev_camera = Some(*camera);
+        let upscale = t.elapsed().as_secs_f64();
+        times.resolve += upscale;
+        times.wall += upscale;
+        times
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scaled_sizes_stay_between_eight_pixels_and_the_output() {
+        assert_eq!(scaled_size(1280, 720, 0.5), (640, 360));
+        assert_eq!(scaled_size(1280, 720, 1.0), (1280, 720));
+        assert_eq!(scaled_size(1280, 720, 0.001), (8, 8));
+        assert_eq!(scaled_size(4, 720, 0.5), (4, 360));
+        assert_eq!(scaled_size(1280, 720, f32::NAN), (1280, 720));
+        assert_eq!(scaled_size(1280, 720, 7.0), (1280, 720));
+    }
+}
