@@ -458,19 +458,15 @@ fn factors(
         &centre,
         dot(&centre, &centre).max(Wide::splat(1e-30)).rsqrt_approx(),
     );
-    let mut fan = [[[Wide::ZERO; 3]; 3]; MAX_VERTICES];
-    for i in 0..n {
-        fan[i] = [c, o[i], o[if i + 1 == n { 0 } else { i + 1 }]];
-    }
-    let fan = &fan[..n];
+    let fan = Fan { c, o: &o[..n] };
     let mut sums = [Wide8::ZERO; 4];
     for pair in 0..n.div_ceil(2) {
         let second = if 2 * pair + 1 < n {
-            Some(tri_node(&fan[2 * pair + 1]))
+            Some(tri_node(&fan.tri(2 * pair + 1)))
         } else {
             None
         };
-        node_pair(k, tri_node(&fan[2 * pair]), second, &mut sums);
+        node_pair(k, tri_node(&fan.tri(2 * pair)), second, &mut sums);
     }
     let coarse = halves(shaped(sums));
     let ltc = (share_a * k.maga, share_b * k.magb);
@@ -624,8 +620,29 @@ fn blend(a: &[Wide; 4], b: &[Wide; 4], t: Wide) -> [Wide; 4] {
 /// polygon and the level.
 struct Refined<'a> {
     k: &'a CorrectionLanes,
-    fan: &'a [Tri],
+    fan: Fan<'a>,
     level: u32,
+}
+
+/// The fan over a polygon's image: triangle `i` joins the centroid
+/// direction `c` to vertices `i` and `i + 1` of `o` (made where it is read,
+/// not stored).
+#[derive(Clone, Copy)]
+struct Fan<'a> {
+    c: Wide3,
+    o: &'a [Wide3],
+}
+
+impl Fan<'_> {
+    #[inline(always)]
+    fn tri(&self, i: usize) -> Tri {
+        let n = self.o.len();
+        [
+            self.c,
+            self.o[i],
+            self.o[if i + 1 == n { 0 } else { i + 1 }],
+        ]
+    }
 }
 
 impl Kernel for Refined<'_> {
@@ -637,22 +654,25 @@ impl Kernel for Refined<'_> {
 }
 
 #[inline(always)]
-fn refined_sums(k: &CorrectionLanes, fan: &[Tri], level: u32) -> [Wide; 4] {
+fn refined_sums(k: &CorrectionLanes, fan: Fan, level: u32) -> [Wide; 4] {
     let mut sums = [Wide8::ZERO; 4];
     // Level 1 takes each fan triangle's four pieces as one group; level 2
     // splits each piece again, four groups of four, in the same order.
     let groups = if level == 1 { 1 } else { 4 };
-    for t in fan {
+    for i in 0..fan.o.len() {
+        let t = fan.tri(i);
         // A fan triangle degenerate in every lane (a padding slot) adds 0.
-        if !tri_node(t).0.gt(Wide::ZERO).any() {
+        if !tri_node(&t).0.gt(Wide::ZERO).any() {
             continue;
         }
-        let pieces = split(t);
+        let pieces = split(&t);
         for g in 0..groups {
+            let finer;
             let group = if level == 1 {
-                pieces
+                &pieces
             } else {
-                split(&pieces[g])
+                finer = split(&pieces[g]);
+                &finer
             };
             for pair in 0..2 {
                 node_pair(

@@ -44,6 +44,19 @@ use super::lanes::{BatchFloat, Mask, Wide, Wide3, dot};
 use super::ltc::{self, CellLanes, LtcCell};
 use super::ltc_correction::{CorrectionLanes, Stakes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
+
+/// Slots of a light's polygon in lanes: its vertices, and one more for a
+/// polygon clipped to the horizon. Loops run to the light's own count, so
+/// one copy of each kernel serves every light.
+const SLOTS: usize = MAX_LIGHT_VERTICES + 1;
+
+/// The slots a polygon of `len` uses: `N` where the caller fixed it at
+/// compile time (triangles and quads, whose loops LLVM then unrolls), its
+/// run-time length where `N` is 0 (every other light, one copy for all).
+#[inline(always)]
+fn slots<const N: usize>(len: usize) -> usize {
+    if N == 0 { len } else { N }
+}
 use super::unshadowed::{ShadingLight, SurfacePoint, unshadowed_lobes_among};
 use glam::{BVec4A, DVec3, Vec3, Vec4};
 use penumbra_isa::{self as isa, Kernel};
@@ -391,10 +404,7 @@ fn lobes_of(
     match light.n {
         3 => lobes_n::<3, 4>(batch, light, specular, out),
         4 => lobes_n::<4, 5>(batch, light, specular, out),
-        5 => lobes_n::<5, 6>(batch, light, specular, out),
-        6 => lobes_n::<6, 7>(batch, light, specular, out),
-        7 => lobes_n::<7, 8>(batch, light, specular, out),
-        8 => lobes_n::<8, 9>(batch, light, specular, out),
+        5..=MAX_LIGHT_VERTICES => lobes_n::<0, 0>(batch, light, specular, out),
         _ => {
             *out = LaneLobes::default();
             LaneCounts {
@@ -495,50 +505,59 @@ fn edge_parts(a: &Wide3, b: &Wide3, e: &Wide3, ia: Wide, ib: Wide) -> (Wide, Wid
     (d, cz, size)
 }
 
-/// A polygon's `K` edges as a contour sum reads them: edge `i` as (cosine,
+/// A polygon's edges as a contour sum reads them: edge `i` as (cosine,
 /// cz, size) (`edge_parts`). A trait with always-inlined methods rather
 /// than a closure: LLVM stopped inlining the closures once the function
 /// around them grew, and each call then cost a spill of everything live.
-trait Edges<const K: usize> {
+trait Edges {
+    fn count(&self) -> usize;
     fn edge(&self, i: usize) -> (Wide, Wide, Wide);
 }
 
 /// Unclipped polygon: vertices `q`, exact edge vectors `e`, inverse vertex
 /// lengths `inv`.
-struct Unclipped<'a, const K: usize> {
-    q: &'a [Wide3; K],
-    e: &'a [Wide3; K],
-    inv: &'a [Wide; K],
+struct Unclipped<'a, const N: usize> {
+    q: &'a [Wide3],
+    e: &'a [Wide3],
+    inv: &'a [Wide],
 }
 
-impl<const K: usize> Edges<K> for Unclipped<'_, K> {
+impl<const N: usize> Edges for Unclipped<'_, N> {
+    #[inline(always)]
+    fn count(&self) -> usize {
+        slots::<N>(self.q.len())
+    }
     #[inline(always)]
     fn edge(&self, i: usize) -> (Wide, Wide, Wide) {
-        let j = if i + 1 == K { 0 } else { i + 1 };
+        let j = if i + 1 == self.count() { 0 } else { i + 1 };
         edge_parts(&self.q[i], &self.q[j], &self.e[i], self.inv[i], self.inv[j])
     }
 }
 
 /// Edges already made: (cosines, cz, sizes).
-impl<const K: usize> Edges<K> for ([Wide; K], [Wide; K], [Wide; K]) {
+impl Edges for (&[Wide], &[Wide], &[Wide]) {
+    #[inline(always)]
+    fn count(&self) -> usize {
+        self.0.len()
+    }
     #[inline(always)]
     fn edge(&self, i: usize) -> (Wide, Wide, Wide) {
         (self.0[i], self.1[i], self.2[i])
     }
 }
 
-/// `sum theta/sin(theta) cz` and `sum theta/sin(theta) size` over the `K`
+/// `sum theta/sin(theta) cz` and `sum theta/sin(theta) size` over the
 /// edges, each edge's terms added as soon as they are made (no arrays of
 /// them live at once). The `pi / sin` branch of theta/sin is needed only
 /// when some lane that counts (`live`) has an edge wider than 90 degrees
 /// (rare: very wide polygons); then the edges are made again and summed
 /// with it.
 #[inline(always)]
-fn sum_terms<const K: usize>(edges: &impl Edges<K>, live: Mask) -> (Wide, Wide) {
+fn sum_terms(edges: &impl Edges, live: Mask) -> (Wide, Wide) {
     let mut wide = Mask::NONE;
     let mut sum = Wide::ZERO;
     let mut bound = Wide::ZERO;
-    for i in 0..K {
+    for i in 0..edges.count() {
         let (d, cz, size) = edges.edge(i);
         wide = wide.or(d.lt(Wide::ZERO));
         let t = theta_over_sin_pos(d);
@@ -547,7 +566,7 @@ fn sum_terms<const K: usize>(edges: &impl Edges<K>, live: Mask) -> (Wide, Wide) 
     }
     if wide.and(live).any() {
         (sum, bound) = (Wide::ZERO, Wide::ZERO);
-        for i in 0..K {
+        for i in 0..edges.count() {
             let (d, cz, size) = edges.edge(i);
             let t = theta_over_sin(d);
             sum = t.mul_add(cz, sum);
@@ -563,20 +582,25 @@ fn sum_terms<const K: usize>(edges: &impl Edges<K>, live: Mask) -> (Wide, Wide) 
 /// correction).
 #[inline(always)]
 fn lambert_sum<const N: usize>(
-    q: &[Wide3; N],
-    e: &[Wide3; N],
+    q: &[Wide3],
+    e: &[Wide3],
     live: Mask,
-) -> (Wide, Wide, [Wide; N], [Wide3; N]) {
-    let mut len = [Wide::ZERO; N];
-    let mut inv = [Wide::ZERO; N];
-    for i in 0..N {
+) -> (Wide, Wide, [Wide; SLOTS], [Wide3; SLOTS]) {
+    let n = slots::<N>(q.len());
+    let mut len = [Wide::ZERO; SLOTS];
+    let mut inv = [Wide::ZERO; SLOTS];
+    for i in 0..n {
         len[i] = length(&q[i]);
         inv[i] = Wide::ONE / len[i];
     }
-    let edges = Unclipped { q, e, inv: &inv };
+    let edges = Unclipped::<N> {
+        q,
+        e,
+        inv: &inv[..n],
+    };
     let (sum, bound) = sum_terms(&edges, live);
-    let mut u = [[Wide::ZERO; 3]; N];
-    for i in 0..N {
+    let mut u = [[Wide::ZERO; 3]; SLOTS];
+    for i in 0..n {
         u[i] = [q[i][0] * inv[i], q[i][1] * inv[i], q[i][2] * inv[i]];
     }
     (sum, bound, len, u)
@@ -593,9 +617,9 @@ fn mean3(v: &[Wide; 3]) -> Wide {
 struct LtcSum<'a, const N: usize> {
     m: &'a [Wide; 4],
     norm: Wide,
-    q: &'a [Wide3; N],
-    e: &'a [Wide3; N],
-    len_l: &'a [Wide; N],
+    q: &'a [Wide3],
+    e: &'a [Wide3],
+    len_l: &'a [Wide],
     live: Mask,
 }
 
@@ -603,7 +627,7 @@ impl<const N: usize> Kernel for LtcSum<'_, N> {
     type Out = (Wide, Wide, Wide);
     #[inline(always)]
     fn run(self) -> (Wide, Wide, Wide) {
-        ltc_sum(self.m, self.norm, self.q, self.e, self.len_l, self.live)
+        ltc_sum::<N>(self.m, self.norm, self.q, self.e, self.len_l, self.live)
     }
 }
 
@@ -614,16 +638,17 @@ impl<const N: usize> Kernel for LtcSum<'_, N> {
 fn ltc_sum<const N: usize>(
     m: &[Wide; 4],
     norm: Wide,
-    q: &[Wide3; N],
-    e: &[Wide3; N],
-    len_l: &[Wide; N],
+    q: &[Wide3],
+    e: &[Wide3],
+    len_l: &[Wide],
     live: Mask,
 ) -> (Wide, Wide, Wide) {
-    let mut qi = [[Wide::ZERO; 3]; N];
-    let mut ei = [[Wide::ZERO; 3]; N];
-    let mut len = [Wide::ZERO; N];
-    let mut inv = [Wide::ZERO; N];
-    for i in 0..N {
+    let n = slots::<N>(q.len());
+    let mut qi = [[Wide::ZERO; 3]; SLOTS];
+    let mut ei = [[Wide::ZERO; 3]; SLOTS];
+    let mut len = [Wide::ZERO; SLOTS];
+    let mut inv = [Wide::ZERO; SLOTS];
+    for i in 0..n {
         qi[i] = ltc_map(m, &q[i]);
         ei[i] = ltc_map(m, &e[i]);
         len[i] = length(&qi[i]);
@@ -631,17 +656,17 @@ fn ltc_sum<const N: usize>(
     }
     let mut gain = Wide::ZERO;
     let mut clips = Mask::NONE;
-    for i in 0..N {
+    for i in 0..n {
         gain = gain.max(inv[i] * len_l[i]);
         clips = clips.or(qi[i][2].lt(Wide::ZERO));
     }
     let (sum, bound) = if clips.and(live).any() {
-        clipped_sum(&qi, &ei, &len, &inv, live)
+        clipped_sum::<N>(&qi[..n], &ei[..n], &len[..n], &inv[..n], live)
     } else {
-        let edges = Unclipped {
-            q: &qi,
-            e: &ei,
-            inv: &inv,
+        let edges = Unclipped::<N> {
+            q: &qi[..n],
+            e: &ei[..n],
+            inv: &inv[..n],
         };
         sum_terms(&edges, live)
     };
@@ -664,21 +689,22 @@ fn ltc_sum<const N: usize>(
 /// directions, so `x` is never scaled to the crossing point itself.
 #[inline(always)]
 fn clipped_sum<const N: usize>(
-    q: &[Wide3; N],
-    e: &[Wide3; N],
-    len: &[Wide; N],
-    inv_v: &[Wide; N],
+    q: &[Wide3],
+    e: &[Wide3],
+    len: &[Wide],
+    inv_v: &[Wide],
     live: Mask,
 ) -> (Wide, Wide) {
+    let n = slots::<N>(q.len());
     let zero = Wide::ZERO;
-    let mut dots = [zero; N];
-    let mut cz = [zero; N];
-    let mut size = [zero; N];
+    let mut dots = [zero; SLOTS];
+    let mut cz = [zero; SLOTS];
+    let mut size = [zero; SLOTS];
     let mut exit = [zero; 3];
     let mut entry = [zero; 3];
     let mut crossed = Mask::NONE;
-    for i in 0..N {
-        let j = if i + 1 == N { 0 } else { i + 1 };
+    for i in 0..n {
+        let j = if i + 1 == n { 0 } else { i + 1 };
         let (a, b, ev) = (&q[i], &q[j], &e[i]);
         let (ina, inb) = (a[2].ge(zero), b[2].ge(zero));
         let (az, bz) = (a[2].abs(), b[2].abs());
@@ -720,7 +746,7 @@ fn clipped_sum<const N: usize>(
         }
         crossed = crossed.or(leaving);
     }
-    let (sum, bound) = sum_terms(&(dots, cz, size), live);
+    let (sum, bound) = sum_terms(&(&dots[..n], &cz[..n], &size[..n]), live);
     // The horizon edge (exit = entry = 0 where nothing crossed: adds 0).
     // Its vector is a difference of two rounded crossings: two more ulps
     // of the edge's own scale in its bound.
@@ -728,7 +754,7 @@ fn clipped_sum<const N: usize>(
     let along = [entry[0] - exit[0], entry[1] - exit[1], entry[2] - exit[2]];
     let (d, c, s) = edge_parts(&exit, &entry, &along, ex, en);
     let s = crossed.select(s + Wide::splat(2.0), zero);
-    let (hsum, hbound) = sum_terms(&([d], [c], [s]), live);
+    let (hsum, hbound) = sum_terms(&(&[d][..], &[c][..], &[s][..]), live);
     (sum + hsum, bound + hbound)
 }
 
@@ -738,39 +764,38 @@ fn form_factor(sum: Wide) -> Wide {
     (sum.abs() * Wide::splat(0.5 / std::f64::consts::PI)).min(Wide::ONE)
 }
 
-/// The local polygon clipped to the horizon, `K` (= N + 1) slots per lane,
+/// The local polygon clipped to the horizon, `k` (= n + 1) slots per lane,
 /// as `polygon::clip_upper_into` makes it: vertices `q`, the vector `e`
 /// from each to the next, `real` (false for the slots that pad a lane's
 /// polygon: repeats of its first vertex, whose edges add exactly 0), and
 /// `slack`, what the crossings add to each lane's rounding bound.
-struct Clipped<const K: usize> {
-    q: [Wide3; K],
-    e: [Wide3; K],
-    real: [Mask; K],
+struct Clipped {
+    q: [Wide3; SLOTS],
+    e: [Wide3; SLOTS],
+    real: [Mask; SLOTS],
     slack: Wide,
+    /// Slots in use: the light's vertex count plus one.
+    k: usize,
 }
 
-/// `q`, `e` (`N` vertices) in `K = N + 1` slots: every lane gets its polygon
+/// `q`, `e` (`n` vertices) in `k = n + 1` slots: every lane gets its polygon
 /// with its first vertex repeated in the last slot, and the lanes of
 /// `straddle` get their polygon clipped to z >= 0 (`clip_lane`). Returns the
 /// lanes whose clip could not be made (they take the scalar path).
 #[inline(always)]
-fn clip_lanes<const N: usize, const K: usize>(
-    q: &[Wide3; N],
-    e: &[Wide3; N],
-    straddle: Mask,
-) -> (Clipped<K>, Mask) {
-    const { assert!(K == N + 1) };
+fn clip_lanes(q: &[Wide3], e: &[Wide3], straddle: Mask) -> (Clipped, Mask) {
+    let n = q.len();
     let mut c = Clipped {
-        q: [[Wide::ZERO; 3]; K],
-        e: [[Wide::ZERO; 3]; K],
-        real: [Mask::from_fn(|_| true); K],
+        q: [[Wide::ZERO; 3]; SLOTS],
+        e: [[Wide::ZERO; 3]; SLOTS],
+        real: [Mask::from_fn(|_| true); SLOTS],
         slack: Wide::ZERO,
+        k: n + 1,
     };
-    c.q[..N].copy_from_slice(q);
-    c.e[..N].copy_from_slice(e);
-    c.q[N] = q[0];
-    c.real[N] = Mask::NONE;
+    c.q[..n].copy_from_slice(q);
+    c.e[..n].copy_from_slice(e);
+    c.q[n] = q[0];
+    c.real[n] = Mask::NONE;
     let mut failed = [false; LANES];
     for (l, failed) in failed.iter_mut().enumerate() {
         if straddle.lane(l) {
@@ -794,23 +819,19 @@ fn clip_lanes<const N: usize, const K: usize>(
 /// if the polygon has more crossings than a convex one (rounding of a
 /// near-degenerate light).
 #[inline(never)]
-fn clip_lane<const N: usize, const K: usize>(
-    q: &[Wide3; N],
-    e: &[Wide3; N],
-    l: usize,
-    out: &mut Clipped<K>,
-) -> bool {
+fn clip_lane(q: &[Wide3], e: &[Wide3], l: usize, out: &mut Clipped) -> bool {
+    let (n, slots) = (q.len(), out.k);
     let at = |v: &Wide3| DVec3::new(v[0].0[l], v[1].0[l], v[2].0[l]);
     let norm1 = |v: DVec3| v.abs().element_sum();
-    let mut pts = [DVec3::ZERO; K];
-    let mut next: [Option<DVec3>; K] = [None; K];
+    let mut pts = [DVec3::ZERO; SLOTS];
+    let mut next: [Option<DVec3>; SLOTS] = [None; SLOTS];
     let mut slack = 0.0;
     let mut k = 0;
-    for i in 0..N {
-        let j = if i + 1 == N { 0 } else { i + 1 };
+    for i in 0..n {
+        let j = if i + 1 == n { 0 } else { i + 1 };
         let (a, b, ev) = (at(&q[i]), at(&q[j]), at(&e[i]));
         if a.z >= 0.0 {
-            if k == K {
+            if k == slots {
                 return false;
             }
             pts[k] = a;
@@ -818,7 +839,7 @@ fn clip_lane<const N: usize, const K: usize>(
             k += 1;
         }
         if (a.z > 0.0 && b.z < 0.0) || (a.z < 0.0 && b.z > 0.0) {
-            if k == K {
+            if k == slots {
                 return false;
             }
             let den = a.z - b.z;
@@ -839,7 +860,7 @@ fn clip_lane<const N: usize, const K: usize>(
     if k < 3 {
         return false;
     }
-    for s in 0..K {
+    for s in 0..slots {
         let (p, ev, real) = if s < k {
             let to = pts[if s + 1 == k { 0 } else { s + 1 }];
             let ev = next[s].unwrap_or_else(|| {
@@ -891,11 +912,12 @@ fn lobes_n<const N: usize, const K: usize>(
 
     // The light in each lane's local frame: vertices relative to the point,
     // and edges rotated from the light's own (exact) edge vectors.
-    let mut q = [[Wide::ZERO; 3]; N];
-    let mut e = [[Wide::ZERO; 3]; N];
+    let n = slots::<N>(light.n);
+    let mut q = [[Wide::ZERO; 3]; SLOTS];
+    let mut e = [[Wide::ZERO; 3]; SLOTS];
     let mut min_z = Wide::splat(BatchFloat::INFINITY);
     let mut max_z = Wide::splat(BatchFloat::NEG_INFINITY);
-    for i in 0..N {
+    for i in 0..n {
         let v = splat3(light.v[i]);
         q[i] = rotate(&b.frame, &[v[0] - p[0], v[1] - p[1], v[2] - p[2]]);
         e[i] = rotate(&b.frame, &splat3(light.e[i]));
@@ -912,14 +934,23 @@ fn lobes_n<const N: usize, const K: usize>(
             b,
             light,
             specular,
-            q: &q,
-            e: &e,
+            q: &q[..n],
+            e: &e[..n],
             straddle,
             fast,
             out,
         }));
     } else if fast.any() {
-        hard = hard.or(shade(b, light, specular, &q, &e, None, fast, out));
+        hard = hard.or(shade::<N>(
+            b,
+            light,
+            specular,
+            &q[..n],
+            &e[..n],
+            None,
+            fast,
+            out,
+        ));
     }
 
     let mut counts = LaneCounts {
@@ -939,7 +970,7 @@ fn lobes_n<const N: usize, const K: usize>(
 }
 
 /// `shade` when some lane's light straddles its horizon (`straddle`): the
-/// batch integrates every lane's polygon in `K = N + 1` slots, those
+/// batch integrates every lane's polygon in `n + 1` slots, those
 /// lanes' clipped. Kept out of line, as a `Kernel` of its own (`isa`): the
 /// common batch, with no clip, runs `shade` inlined in `lobes_n` and is not
 /// slowed by this copy of it.
@@ -947,8 +978,8 @@ struct ShadeClipped<'a, const N: usize, const K: usize> {
     b: &'a PixelBatch,
     light: &'a BatchLight,
     specular: bool,
-    q: &'a [Wide3; N],
-    e: &'a [Wide3; N],
+    q: &'a [Wide3],
+    e: &'a [Wide3],
     straddle: Mask,
     fast: Mask,
     out: &'a mut LaneLobes,
@@ -978,21 +1009,22 @@ fn shade_clipped<const N: usize, const K: usize>(
     b: &PixelBatch,
     light: &BatchLight,
     specular: bool,
-    q: &[Wide3; N],
-    e: &[Wide3; N],
+    q: &[Wide3],
+    e: &[Wide3],
     straddle: Mask,
     fast: Mask,
     out: &mut LaneLobes,
 ) -> Mask {
-    let (c, failed) = clip_lanes::<N, K>(q, e, straddle);
+    let (c, failed) = clip_lanes(q, e, straddle);
     let fast = fast.and_not(failed);
-    failed.or(shade(
+    let k = slots::<K>(c.k);
+    failed.or(shade::<K>(
         b,
         light,
         specular,
-        &c.q,
-        &c.e,
-        Some((&c.real, c.slack)),
+        &c.q[..k],
+        &c.e[..k],
+        Some((&c.real[..k], c.slack)),
         fast,
         out,
     ))
@@ -1005,18 +1037,19 @@ fn shade_clipped<const N: usize, const K: usize>(
 /// whose value is not finite): the caller sends them to the scalar path.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn shade<const K: usize>(
+fn shade<const N: usize>(
     b: &PixelBatch,
     light: &BatchLight,
     specular: bool,
-    q: &[Wide3; K],
-    e: &[Wide3; K],
-    clipped: Option<(&[Mask; K], Wide)>,
+    q: &[Wide3],
+    e: &[Wide3],
+    clipped: Option<(&[Mask], Wide)>,
     fast: Mask,
     out: &mut LaneLobes,
 ) -> Mask {
     let eps = Wide::splat(ERR_ULPS * BatchFloat::EPSILON * 0.5 + POLY_ERR_F64);
-    let (sum_l, bnd_l, len_l, u) = lambert_sum(q, e, fast);
+    let k = slots::<N>(q.len());
+    let (sum_l, bnd_l, len_l, u) = lambert_sum::<N>(q, e, fast);
     // A contour sum's error: `eps` of its bound, plus the clip's slack.
     // (Plain code, no closures here: a closure is compiled out of line at
     // baseline, whatever instruction set its caller runs; `isa`.)
@@ -1034,22 +1067,22 @@ fn shade<const K: usize>(
         Mask::NONE
     };
     if lobe.any() {
-        let (sum_a, bnd_a, gain_a) = isa::run(LtcSum {
+        let (sum_a, bnd_a, gain_a) = isa::run(LtcSum::<N> {
             m: &b.ma,
             norm: b.norm_a,
             q,
             e,
-            len_l: &len_l,
+            len_l: &len_l[..k],
             live: lobe,
         });
         let want_b = lobe.and(b.want_b);
         let (sum_b, bnd_b, gain_b) = if want_b.any() {
-            isa::run(LtcSum {
+            isa::run(LtcSum::<N> {
                 m: &b.mb,
                 norm: b.norm_b,
                 q,
                 e,
-                len_l: &len_l,
+                len_l: &len_l[..k],
                 live: want_b,
             })
         } else {
@@ -1069,7 +1102,7 @@ fn shade<const K: usize>(
             diffuse: mean3(&b.kd) * ff,
             others: b.others / Wide::splat(BatchFloat::from(luminance(light.radiance)).max(1e-30)),
         };
-        let (ka, kb) = lobe_factors_lanes(&u, real, &b.corr, share_a, share_b, &stakes);
+        let (ka, kb) = lobe_factors_lanes(&u[..k], real, &b.corr, share_a, share_b, &stakes);
         let err_a = eps.mul_add(bnd_a, slack) * gain_a * Wide::splat(0.5 / std::f64::consts::PI);
         let err_b = eps.mul_add(bnd_b, slack) * gain_b * Wide::splat(0.5 / std::f64::consts::PI);
         let a = b.lobe.select(b.mag * share_a * ka, Wide::ZERO);
