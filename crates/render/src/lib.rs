@@ -10,14 +10,16 @@ pub mod plan;
 pub mod primary;
 pub mod quads;
 pub mod replay;
+pub mod settings;
 pub mod shadow;
 pub mod solo;
 pub mod upscaled;
 pub mod world;
 
-pub use frame::{Frame, LIGHT_TOLERANCE, PhaseTimes, RenderSettings};
+pub use frame::{Frame, PhaseTimes};
 pub use gbuffer::{GSample, PixelKind};
 pub use mode::Mode;
-pub use plan::{FramePlan, VisibilityRate};
+pub use plan::FramePlan;
+pub use settings::{LIGHT_TOLERANCE, RenderSettings, VisibilityRate};
 pub use upscaled::{Upscaled, render_frame, scaled_size, shown};
 pub use world::World;

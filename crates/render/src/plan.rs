@@ -4,58 +4,8 @@
 //! plan's fields; none of them looks at the mode again.
 
 use super::estimate::Estimator;
-use super::frame::RenderSettings;
 use super::mode::Mode;
-use std::fmt;
-use std::str::FromStr;
-
-/// How many pixels draw visibility samples (`U_N`, `S_N`) per frame. `U` is
-/// evaluated at every pixel every frame whatever the rate: the shading
-/// detail lives there.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum VisibilityRate {
-    /// Every pixel, every frame.
-    #[default]
-    Full,
-    /// One pixel of each 2x2 quad per frame, rotating so every pixel is
-    /// sampled once in 4 frames; the samples are denoised at quad
-    /// resolution and the ratio is brought back to every pixel with the
-    /// G-buffer as guide.
-    Quarter,
-}
-
-impl VisibilityRate {
-    pub const ALL: [VisibilityRate; 2] = [VisibilityRate::Full, VisibilityRate::Quarter];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            VisibilityRate::Full => "full",
-            VisibilityRate::Quarter => "quarter",
-        }
-    }
-
-    /// The next rate in `ALL` (the viewer's key cycles through them).
-    pub fn next(self) -> VisibilityRate {
-        let i = Self::ALL.iter().position(|r| *r == self).unwrap_or(0);
-        Self::ALL[(i + 1) % Self::ALL.len()]
-    }
-}
-
-impl fmt::Display for VisibilityRate {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for VisibilityRate {
-    type Err = String;
-    fn from_str(s: &str) -> Result<VisibilityRate, String> {
-        Self::ALL
-            .into_iter()
-            .find(|r| r.name() == s)
-            .ok_or_else(|| format!("unknown visibility rate \"{s}\" (expected full or quarter)"))
-    }
-}
+use super::settings::{RenderSettings, VisibilityRate};
 
 /// How a pixel's colour is formed from the frame's signals.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -5,10 +5,12 @@
 //! the G-buffer its samples were drawn on.
 
 use super::estimate::{SampleRecord, SampleSink, SampleStream, Strategy, analytic_u_band, ratio};
-use super::frame::{BAND_ROWS, Frame, RenderSettings};
+use super::frame::{BAND_ROWS, Frame};
 use super::gbuffer::{GSample, PixelKind};
-use super::plan::{FramePlan, VisibilityRate};
+use super::plan::FramePlan;
 use super::quads::{QUAD_ORDER, sampled_pixel};
+use super::settings::RenderSettings;
+use super::settings::VisibilityRate;
 use super::shadow::ShadowBatch;
 use super::world::World;
 use glam::Vec3;

@@ -4,8 +4,9 @@
 //! the render size; only the upscale's history has the output's size, so a
 //! change of render size keeps it.
 
-use super::frame::{Frame, PhaseTimes, RenderSettings};
+use super::frame::{Frame, PhaseTimes};
 use super::plan::FramePlan;
+use super::settings::RenderSettings;
 use super::world::World;
 use glam::Vec3;
 use penumbra_denoise::{CameraMotion, DenoiseSettings, ResolveSettings, Upscale};

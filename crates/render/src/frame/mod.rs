@@ -4,31 +4,32 @@
 //! composite and the temporal resolve. State that outlives a frame
 //! (histories, previous camera, reference accumulation) lives here too.
 //!
-//! One file a stage: `band` (primary rays, `U`, samples and shadow rays,
-//! per band of rows), `quarter` (visibility at a quarter of the pixels and
+//! One file a stage: `pass` (the band pass over the frame) and `band` (one
+//! band's primary rays, `U`, samples and shadow rays), `quarter` (visibility at a quarter of the pixels and
 //! its upsampling), `composite` (the colour and its temporal resolve),
-//! `reference` (the converged estimate); `settings` and `clock` hold what a
-//! frame is asked for and what it measured.
+//! `reference` (the converged estimate); `clock` holds what a frame
+//! measured of itself.
 
 mod band;
 mod clock;
 mod composite;
+mod pass;
 mod quarter;
 mod reference;
-mod settings;
 
 pub use band::BAND_ROWS;
 pub use clock::PhaseTimes;
 pub use composite::finite_or_zero;
-pub use settings::{LIGHT_TOLERANCE, RenderSettings};
 
 use self::clock::PhaseClock;
 
 use crate::gbuffer::GSample;
 use crate::guides::Guides;
-use crate::plan::{FramePlan, VisibilityRate};
+use crate::plan::FramePlan;
 use crate::primary::PixelOffset;
 use crate::quads::Quads;
+use crate::settings::RenderSettings;
+use crate::settings::VisibilityRate;
 use crate::solo::SoloHistory;
 use crate::world::World;
 use glam::{Vec2, Vec3};

@@ -5,13 +5,13 @@
 use super::Frame;
 use super::band::{BAND_ROWS, BandJob, BandMut, BandScratch};
 use super::clock::PhaseClock;
-use super::settings::RenderSettings;
 use crate::estimate::{SampleSink, analytic_u_band, draw_samples};
 use crate::gbuffer::GSample;
 use crate::guides::GuideMut;
 use crate::plan::FramePlan;
 use crate::primary::PixelOffset;
 use crate::quads::{self, FullRes, Quads};
+use crate::settings::RenderSettings;
 use crate::shadow::ShadowBatch;
 use crate::solo::SoloHistory;
 use crate::world::World;
