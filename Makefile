@@ -6,7 +6,7 @@ BIN := target/release/penumbra
 # `penumbra bench --plot`; valgrind: `make memcheck`; the build needs neither).
 APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 
-.PHONY: run test test-embree4 deps build lint bench bench-quick fit-ltc clean fuzz memcheck longrun golden-bless
+.PHONY: run test test-embree4 deps build lint bench bench-quick profile fit-ltc clean fuzz memcheck longrun golden-bless
 
 # No target CPU is forced: one build runs on any x86-64 CPU, and its hot
 # loops pick AVX-512, AVX2 or baseline at run time (crates/isa/src/lib.rs;
@@ -59,6 +59,23 @@ bench: build
 # The smoke run: seconds, small frames, a cheap reference.
 bench-quick: build
 	$(BIN) bench --quick --json target/bench-quick.json
+
+# Instructions per pixel per frame, stage by stage: callgrind on a fixed
+# small render (valgrind runs the AVX2 level), counted inside Frame::render
+# only, turned into a table by scripts/profile.py (docs/performance.md,
+# "Instruction profile"). The same binary gives the same counts on any load.
+PROFILE_WIDTH := 320
+PROFILE_HEIGHT := 180
+PROFILE_FRAMES := 4
+PROFILE_SCENE ?= scenes/room.toml
+profile: build
+	mkdir -p target/profile
+	valgrind --tool=callgrind --callgrind-out-file=target/profile/callgrind.out \
+	  --toggle-collect='*Frame*::render' \
+	  $(BIN) render $(PROFILE_SCENE) --width $(PROFILE_WIDTH) --height $(PROFILE_HEIGHT) \
+	  --threads 1 --frames $(PROFILE_FRAMES) --orbit 1 --out target/profile/frame.exr
+	scripts/profile.py target/profile/callgrind.out $$(($(PROFILE_WIDTH) * $(PROFILE_HEIGHT))) \
+	  $(PROFILE_FRAMES) --json target/profile/profile.json
 
 fit-ltc: build
 	$(BIN) fit-ltc --size 64 --out data/ltc_64.bin --heatmap docs/ltc-fit-error.png

@@ -249,6 +249,8 @@ impl Denoiser {
     /// Denoises `un` and `sn` in place with identical per-pixel weights (the
     /// temporal blend included); runs on the current rayon pool. A size change
     /// reallocates and drops the history.
+    // Out of line: a stage of `make profile` (scripts/profile.py).
+    #[inline(never)]
     pub fn denoise(
         &mut self,
         guide: &GuideBuffers,
@@ -293,6 +295,8 @@ impl Denoiser {
     /// `denoise` where the tiles `unsampled` marks (as `settled_tiles`
     /// gives them) drew no samples this frame: their pixels keep their
     /// history as it is.
+    // Out of line: a stage of `make profile` (scripts/profile.py).
+    #[inline(never)]
     pub fn denoise_sparse(
         &mut self,
         guide: &GuideBuffers,

@@ -41,6 +41,8 @@ impl PixelOffset {
 
 /// Traces the camera rays of rows `y0 .. y0 + out.len() / width` into `out`
 /// (row-major, `width` samples a row).
+// Out of line: a stage of `make profile` (scripts/profile.py).
+#[inline(never)]
 pub fn trace_rows(
     world: &World,
     cam: &CameraFrame,

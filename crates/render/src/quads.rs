@@ -110,6 +110,8 @@ pub struct FullRes<'a> {
 /// (in pixel order) and left at zero: they sample themselves
 /// (`super::solo`); even a fresh history's one sample describes such a
 /// pixel better than its neighbours do. Pixels off surfaces get zero.
+// Out of line: a stage of `make profile` (scripts/profile.py).
+#[inline(never)]
 pub fn upsample(
     full: &FullRes,
     quads: &Quads,

@@ -55,6 +55,8 @@ impl ShadowBatch {
     }
 
     /// Traces every queued ray and calls `visible(ray)` for each unoccluded one.
+    // Out of line: a stage of `make profile` (scripts/profile.py).
+    #[inline(never)]
     pub fn trace(&self, scene: &Scene, width: PacketWidth, mut visible: impl FnMut(&ShadowRay)) {
         match width {
             PacketWidth::One => {

@@ -173,6 +173,8 @@ impl SampleSink<'_> {
 /// Draws `stream.count` samples for one pixel into `sink`: their weights
 /// add to `U_N`, their shadow rays (to be added to `S_N` when unoccluded)
 /// queue in its batch.
+// Out of line: a stage of `make profile` (scripts/profile.py).
+#[inline(never)]
 pub fn draw_samples(
     world: &World,
     g: &GSample,

@@ -71,6 +71,8 @@ pub struct UCounts {
 /// every surface pixel's `U` (luminance) is within `tolerance` of what
 /// every light would give it. `tolerance` 0, or fewer than
 /// `CULL_MIN_LIGHTS` lights, evaluates every light at every pixel.
+// Out of line: a stage of `make profile` (scripts/profile.py).
+#[inline(never)]
 pub fn analytic_u_band(
     world: &World,
     gbuf: &[GSample],

@@ -40,6 +40,8 @@ impl Frame {
     /// resolved colour is taken instead; an undenoised frame is resolved
     /// whole. The frame's composite is computed as before: this stage only
     /// averages it, or its per-frame noise-free factor, over frames.
+    // Out of line: a stage of `make profile` (scripts/profile.py).
+    #[inline(never)]
     pub(super) fn resolve_colour(&mut self, input: ResolveInput, motion: CameraMotion) {
         let guide = self.guide.buffers(&self.u);
         self.resolve.resolve(
@@ -72,6 +74,9 @@ impl Frame {
             });
     }
 
+    // Out of line: a stage of `make profile` (scripts/profile.py).
+
+    #[inline(never)]
     pub(super) fn composite(&mut self, composite: Composite) {
         self.color
             .par_iter_mut()
