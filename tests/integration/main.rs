@@ -12,5 +12,5 @@ mod golden;
 mod ltc;
 mod render;
 mod sampling;
-mod scene;
+
 mod view;

@@ -5,7 +5,6 @@ pub mod denoise;
 pub mod ltc;
 pub mod rng;
 pub mod sampling;
-pub mod scene;
 
 use penumbra::embree::Device;
 use penumbra::render::{Frame, Mode, RenderSettings, World};

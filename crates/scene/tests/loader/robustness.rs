@@ -2,11 +2,11 @@
 //! (every truncation, every line deleted, every number replaced by hostile
 //! values) either load or come back as a `SceneError` with a line.
 
-use crate::support::scene::parse;
+use crate::support::parse;
 
 const SCENE: &str = include_str!(concat!(
     env!("CARGO_MANIFEST_DIR"),
-    "/scenes/shadow-plane.toml"
+    "/../../scenes/shadow-plane.toml"
 ));
 
 fn check(text: &str) {

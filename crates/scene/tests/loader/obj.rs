@@ -1,13 +1,13 @@
 //! OBJ meshes: attributes, triangulation, the transform order, and refusals.
 
-use crate::support::scene::{BASE, close, load_in, temp_dir};
+use crate::support::{BASE, close, load_in, temp_dir};
 use glam::{Vec2, Vec3};
-use penumbra::scene::Scene;
+use penumbra_scene::Scene;
 use std::path::Path;
 
 /// Writes `obj` as mesh.obj next to a scene with one mesh object using
 /// `extra` keys, and loads it.
-fn load_mesh(obj: &str, extra: &str) -> Result<Scene, penumbra::scene::SceneError> {
+fn load_mesh(obj: &str, extra: &str) -> Result<Scene, penumbra_scene::SceneError> {
     let dir = temp_dir();
     std::fs::write(dir.path().join("mesh.obj"), obj).unwrap();
     load_in(
@@ -52,7 +52,9 @@ fn obj_without_normals_has_face_normals_and_polygons_are_triangulated() {
 
 #[test]
 fn shipped_pedestal_obj_triangulates_hexagon_caps() {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/room.toml");
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join("scenes/room.toml");
     let s = Scene::load(&p).unwrap();
     // 2 hexagons (4 triangles each) + 6 side quads (2 each).
     assert!(
@@ -160,11 +162,7 @@ fn assert_obj_refused(obj: &[u8], obj_line: Option<usize>, needle: &str) {
     let scene =
         format!("{BASE}\n[[object]]\nmaterial = \"m\"\ntype = \"mesh\"\npath = \"bad.obj\"\n");
     let e = load_in(dir.path(), &scene).expect_err("refused");
-    assert_eq!(
-        e.line,
-        crate::support::scene::line_of(&scene, "path = "),
-        "{e}"
-    );
+    assert_eq!(e.line, crate::support::line_of(&scene, "path = "), "{e}");
     assert!(e.message.contains("path = \"bad.obj\""), "{e}");
     let at = match obj_line {
         Some(l) => format!("bad.obj:{l}: "),
@@ -180,7 +178,7 @@ fn obj_missing_file_is_refused() {
     let scene =
         format!("{BASE}\n[[object]]\nmaterial = \"m\"\ntype = \"mesh\"\npath = \"nope.obj\"\n");
     let e = load_in(dir.path(), &scene).expect_err("refused");
-    assert_eq!(e.line, crate::support::scene::line_of(&scene, "path = "));
+    assert_eq!(e.line, crate::support::line_of(&scene, "path = "));
     assert!(
         e.message.contains("nope.obj") && e.message.contains("cannot read"),
         "{e}"

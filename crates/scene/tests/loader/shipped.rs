@@ -1,11 +1,12 @@
 //! Every scene shipped in scenes/ loads, and has what it is there for.
 
-use penumbra::scene::Scene;
+use penumbra_scene::Scene;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
         .join("scenes")
         .join(name)
 }
@@ -16,7 +17,9 @@ fn load(name: &str) -> Scene {
 
 #[test]
 fn every_shipped_scene_loads() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join("scenes");
     let mut n = 0;
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
@@ -33,7 +36,7 @@ fn every_shipped_scene_loads() {
 }
 
 /// Quads among the built-in scene's meshes: its floor strips.
-fn strips(s: &Scene) -> Vec<&penumbra::scene::Material> {
+fn strips(s: &Scene) -> Vec<&penumbra_scene::Material> {
     s.meshes
         .iter()
         .filter(|m| m.indices.len() == 2)

@@ -1,7 +1,7 @@
 //! Helpers shared by the scene tests.
 
 use glam::Vec3;
-use penumbra::scene::{Scene, SceneError};
+use penumbra_scene::{Scene, SceneError};
 use std::path::Path;
 
 /// A valid preamble: camera and one material "m". Bad-input tests append the

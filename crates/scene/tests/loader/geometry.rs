@@ -1,9 +1,9 @@
 //! Conventions of the generated geometry: counts, winding, uvs, transforms,
 //! light vertex order and normals, texture addressing.
 
-use crate::support::scene::{close, parse_ok, with};
+use crate::support::{close, parse_ok, with};
 use glam::{Vec2, Vec3};
-use penumbra::scene::{Light, LightError, Mesh, Texture};
+use penumbra_scene::{Light, LightError, Mesh, Texture};
 use std::time::Instant;
 
 fn one_object(obj: &str) -> Mesh {
@@ -226,7 +226,7 @@ fn zero_radiance_light_is_allowed() {
 
 #[test]
 fn scene_without_objects_or_lights_is_valid() {
-    let s = parse_ok(crate::support::scene::BASE);
+    let s = parse_ok(crate::support::BASE);
     assert!(s.meshes.is_empty() && s.lights.is_empty());
     assert_eq!((s.width, s.height), (1280, 720));
     assert_eq!(s.camera.up, Vec3::Y);

@@ -2,9 +2,9 @@
 //! meshes and image maps, and scene files that are not text. Each is refused
 //! with the scene line of the key that names the file, never a panic.
 
-use crate::support::scene::{BASE, line_of, load_in, temp_dir};
+use crate::support::{BASE, line_of, load_in, temp_dir};
 use image::{ImageFormat, Rgb, Rgb32FImage, RgbImage};
-use penumbra::scene::{Scene, SceneError};
+use penumbra_scene::{Scene, SceneError};
 use std::path::Path;
 
 /// Makes `path` unreadable. Returns false where permissions do not bite
@@ -85,7 +85,7 @@ fn binary_scene_file_is_refused_at_the_first_bad_line() {
 #[test]
 fn scene_with_a_nul_byte_is_refused_with_its_line() {
     let text = format!("{BASE}\n[output]\nwidth = 6\0\n");
-    let e = crate::support::scene::parse(&text).expect_err("refused");
+    let e = crate::support::parse(&text).expect_err("refused");
     assert_eq!(e.line, line_of(&text, "width"), "{e}");
 }
 
@@ -141,7 +141,7 @@ fn obj_truncated_inside_a_vertex_is_refused_at_that_line() {
 fn every_truncation_of_the_shipped_obj_loads_or_is_refused_cleanly() {
     let obj = include_str!(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/scenes/meshes/pedestal.obj"
+        "/../../scenes/meshes/pedestal.obj"
     ));
     let dir = temp_dir();
     let scene = mesh_scene("cut.obj");

@@ -1,6 +1,6 @@
 //! Material texture maps: decoding conventions, relative paths and refusals.
 
-use crate::support::scene::{BASE, line_of, load_in, temp_dir};
+use crate::support::{BASE, line_of, load_in, temp_dir};
 use image::{GrayImage, Luma, Rgb, RgbImage};
 
 fn scene_with_map(key: &str, file: &str) -> String {
@@ -109,7 +109,7 @@ fn map_path_must_be_a_string() {
     let text = format!(
         "{BASE}\n[[material]]\nname = \"t\"\ndiffuse = [1,1,1]\nspecular = [0,0,0]\nroughness = 0.5\ndiffuse_map = 3\n"
     );
-    let e = crate::support::scene::parse(&text).expect_err("refused");
+    let e = crate::support::parse(&text).expect_err("refused");
     assert_eq!(e.line, line_of(&text, "diffuse_map"));
     assert!(
         e.message.contains("diffuse_map") && e.message.contains("string"),
@@ -120,7 +120,7 @@ fn map_path_must_be_a_string() {
 #[test]
 fn missing_scene_file_is_an_error_not_a_panic() {
     let dir = temp_dir();
-    let e = penumbra::scene::Scene::load(&dir.path().join("none.toml")).expect_err("refused");
+    let e = penumbra_scene::Scene::load(&dir.path().join("none.toml")).expect_err("refused");
     assert!(
         e.to_string().contains("none.toml") && e.message.contains("cannot read"),
         "{e}"

@@ -1,7 +1,7 @@
 //! Bad input is refused with `file:line: message`, the line being that of the
 //! offending key and the message naming it. One rule per test.
 
-use crate::support::scene::{BASE, assert_refused, line_of, parse, with};
+use crate::support::{BASE, assert_refused, line_of, parse, with};
 
 const CAM_TAIL: &str = "\n[[material]]\nname = \"m\"\ndiffuse = [0.5, 0.5, 0.5]\nspecular = [0, 0, 0]\nroughness = 0.5\n";
 

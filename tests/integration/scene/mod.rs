@@ -1,9 +1,0 @@
-//! The scene loader: TOML, OBJ, image maps, the shipped scenes, and every refusal.
-
-mod bad_files;
-mod errors;
-mod geometry;
-mod obj;
-mod robustness;
-mod shipped;
-mod textures;
