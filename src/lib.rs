@@ -8,8 +8,6 @@
 //! around them (the window, the benchmarks, image output and comparison,
 //! the LTC fit) and re-exports them under one name.
 
-#![forbid(unsafe_code)]
-
 pub use penumbra_denoise as denoise;
 pub use penumbra_embree as embree;
 pub use penumbra_isa as isa;

@@ -1,7 +1,5 @@
 //! The `penumbra` command line: render, view, bench, fit-ltc, compare.
 
-#![forbid(unsafe_code)]
-
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use penumbra::embree::{self, Device};

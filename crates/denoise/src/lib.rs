@@ -26,8 +26,6 @@
 //! Depends only on `glam` and `rayon`; all buffers are allocated on the first
 //! frame (or a resize) and reused afterwards.
 
-#![forbid(unsafe_code)]
-
 mod history;
 mod lobe;
 mod noise;

@@ -15,8 +15,6 @@
 //! `PENUMBRA_ISA` changes the speed of a frame and not its bytes
 //! (`tests/integration/cli/isa.rs`).
 
-#![forbid(unsafe_code)]
-
 use multiversion::multiversion;
 use multiversion::target::match_target;
 use std::sync::OnceLock;

@@ -4,7 +4,5 @@
 //! stochastic estimators. Pure functions over plain data: no rays, no
 //! threads of their own.
 
-#![forbid(unsafe_code)]
-
 pub mod sampling;
 pub mod shading;

@@ -1,7 +1,5 @@
 //! The frame pipeline: scene → G-buffer → U, samples, shadow rays → composite.
 
-#![forbid(unsafe_code)]
-
 pub mod estimate;
 pub mod frame;
 pub mod gbuffer;

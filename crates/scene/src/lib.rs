@@ -2,8 +2,6 @@
 //! polygonal lights, all in world space. Files become this through `load`;
 //! nothing downstream knows about TOML or OBJ.
 
-#![forbid(unsafe_code)]
-
 mod camera;
 pub mod color;
 mod error;

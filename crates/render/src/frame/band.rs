@@ -6,7 +6,9 @@ use super::clock::PhaseClock;
 use crate::estimate::{Estimator, SampleSink, SampleStream, analytic_u_band, draw_samples};
 use crate::gbuffer::GSample;
 use crate::guides::GuideMut;
+use crate::plan::FramePlan;
 use crate::primary::{PACKET_H, PixelOffset, trace_rows};
+use crate::settings::RenderSettings;
 use crate::shadow::{PacketWidth, ShadowBatch};
 use crate::world::World;
 use glam::Vec3;
@@ -37,7 +39,32 @@ pub(super) struct BandJob<'a, 'd> {
     pub(super) clock: &'a PhaseClock,
 }
 
-impl BandJob<'_, '_> {
+impl<'a, 'd> BandJob<'a, 'd> {
+    /// The job of a frame's plan: its estimator and the settings' samples,
+    /// from `first_sample` of each pixel's sequence.
+    pub(super) fn planned(
+        world: &'a World<'d>,
+        (cam, prev): (&'a CameraFrame, &'a CameraFrame),
+        offset: PixelOffset,
+        (settings, plan): (&RenderSettings, &FramePlan),
+        first_sample: u32,
+        clock: &'a PhaseClock,
+    ) -> Self {
+        BandJob {
+            world,
+            cam,
+            prev,
+            offset,
+            estimator: plan.estimator,
+            first_sample,
+            spp: settings.spp,
+            seed: settings.seed,
+            packet: settings.packet,
+            light_tolerance: settings.light_tolerance,
+            clock,
+        }
+    }
+
     /// The samples pixel `pixel` draws this frame.
     pub(super) fn stream(&self, pixel: u32) -> SampleStream {
         SampleStream {

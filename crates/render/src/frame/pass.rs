@@ -33,19 +33,8 @@ impl Frame {
         unsampled: &[u8],
         clock: &PhaseClock,
     ) {
-        let job = BandJob {
-            world,
-            cam,
-            prev,
-            offset,
-            estimator: plan.estimator,
-            first_sample: self.first_sample(plan.rate, settings.spp),
-            spp: settings.spp,
-            seed: settings.seed,
-            packet: settings.packet,
-            light_tolerance: settings.light_tolerance,
-            clock,
-        };
+        let first = self.first_sample(plan.rate, settings.spp);
+        let job = BandJob::planned(world, (cam, prev), offset, (settings, plan), first, clock);
         let (width, height) = (self.width, self.height);
         let quarter = plan.rate == VisibilityRate::Quarter;
         if quarter

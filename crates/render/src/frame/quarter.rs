@@ -204,19 +204,8 @@ impl Frame {
         if self.orphans.is_empty() {
             return;
         }
-        let job = BandJob {
-            world,
-            cam,
-            prev,
-            offset,
-            estimator: plan.estimator,
-            first_sample: self.frame_index.wrapping_mul(settings.spp),
-            spp: settings.spp,
-            seed: settings.seed,
-            packet: settings.packet,
-            light_tolerance: settings.light_tolerance,
-            clock,
-        };
+        let first = self.frame_index.wrapping_mul(settings.spp);
+        let job = BandJob::planned(world, (cam, prev), offset, (settings, plan), first, clock);
         let samples: Vec<(u32, Vec3, Vec3)> = self
             .orphans
             .par_chunks(ORPHAN_CHUNK)
