@@ -97,7 +97,8 @@ pub struct DenoiseSettings {
     /// varies by far more than 25 % within a pixel), and the renderer drops
     /// the whole history when the scene's lights change.
     pub light_test: bool,
-    /// Most à-trous levels (3x3 taps at steps 1, 2, 4, ...: radius 2^n - 1).
+    /// Most à-trous levels (3x3 taps at steps 1, 2, 4, ...: radius 2^n - 1),
+    /// at most 8.
     pub max_levels: u8,
     /// Every surface pixel gets at least this many levels (0 = fully adaptive;
     /// above 0 also disables tile skipping). For tests and debugging views.
@@ -166,16 +167,14 @@ pub struct Denoiser {
     /// `prev` is read by reprojection while `cur` is written; swapped per frame.
     prev: history::History,
     cur: history::History,
-    /// Position, normal and `U` luminance (negative: no surface) per pixel,
-    /// packed so that one à-trous tap reads one small record instead of
-    /// three arrays.
-    guides: Vec<spatial::Guide>,
-    /// Ratio of the accumulated signals per pixel (from the temporal pass),
-    /// and of the two ping-pong buffers of the à-trous levels: computed once
-    /// per pixel and level instead of once per tap.
-    ratio_cur: Vec<f32>,
-    ratio_scratch: Vec<f32>,
-    ratio_out: Vec<f32>,
+    /// Guide planes of the spatial filter (see `spatial::guide`), written by
+    /// the temporal pass.
+    guides: spatial::Planes,
+    /// The accumulated signals and their ratio as planes (the first à-trous
+    /// level's input), and the two ping-pong planes of the later levels.
+    acc: spatial::Planes,
+    ping: spatial::Planes,
+    pong: spatial::Planes,
     /// Raw (this frame only) ratio per pixel, for the spatial noise estimate.
     raw_ratio: Vec<f32>,
     /// Class bits per pixel row and tile column (see `tiles`).
@@ -185,8 +184,6 @@ pub struct Denoiser {
     /// À-trous levels each pixel needs.
     levels: Vec<u8>,
     tiles: tiles::Tiles,
-    scratch_un: Vec<Vec3>,
-    scratch_sn: Vec<Vec3>,
 }
 
 pub use penumbra_scene::color::luminance;
@@ -203,6 +200,18 @@ pub fn luminance_ratio(sn: Vec3, un: Vec3) -> f32 {
     }
 }
 
+/// Planes of a `width` x `height` frame with a border for `levels` à-trous
+/// levels (at least the default count's).
+fn planes(width: u32, height: u32, levels: u8, border: &[f32]) -> spatial::Planes {
+    let levels = levels.max(DenoiseSettings::default().max_levels);
+    spatial::Planes::new(
+        width as usize,
+        height as usize,
+        spatial::pad_for(levels),
+        border,
+    )
+}
+
 impl Denoiser {
     pub fn new(width: u32, height: u32) -> Denoiser {
         let n = width as usize * height as usize;
@@ -211,17 +220,28 @@ impl Denoiser {
             height,
             prev: history::History::new(n),
             cur: history::History::new(n),
-            guides: vec![spatial::Guide::default(); n],
-            ratio_cur: vec![0.0; n],
-            ratio_scratch: vec![0.0; n],
-            ratio_out: vec![0.0; n],
+            guides: planes(width, height, 0, &spatial::GUIDE_BORDER),
+            acc: planes(width, height, 0, &spatial::SIGNAL_BORDER),
+            ping: planes(width, height, 0, &spatial::SIGNAL_BORDER),
+            pong: planes(width, height, 0, &spatial::SIGNAL_BORDER),
             raw_ratio: vec![0.0; n],
             row_class: vec![0; height as usize * (width as usize).div_ceil(TILE)],
             sigma: vec![0.0; n],
             levels: vec![0; n],
             tiles: tiles::Tiles::new(width, height),
-            scratch_un: vec![Vec3::ZERO; n],
-            scratch_sn: vec![Vec3::ZERO; n],
+        }
+    }
+
+    /// Reallocates the planes when `levels` à-trous levels need a wider
+    /// border than they have (a settings change, not a per-frame cost).
+    fn fit_planes(&mut self, levels: u8) {
+        let pad = spatial::pad_for(levels);
+        if self.guides.pad < pad {
+            let (w, h) = (self.width, self.height);
+            self.guides = planes(w, h, levels, &spatial::GUIDE_BORDER);
+            self.acc = planes(w, h, levels, &spatial::SIGNAL_BORDER);
+            self.ping = planes(w, h, levels, &spatial::SIGNAL_BORDER);
+            self.pong = planes(w, h, levels, &spatial::SIGNAL_BORDER);
         }
     }
 
@@ -330,12 +350,15 @@ impl Denoiser {
         }
 
         let t0 = Instant::now();
+        if settings.spatial {
+            self.fit_planes(settings.max_levels.max(settings.min_levels));
+        }
         temporal::accumulate(
             guide,
             &self.prev,
             &mut self.cur,
             &mut self.guides,
-            &mut self.ratio_cur,
+            &mut self.acc,
             &mut self.raw_ratio,
             &mut self.row_class,
             un,
@@ -365,7 +388,6 @@ impl Denoiser {
                 settings,
             );
             let inputs = spatial::Inputs {
-                width: guide.width as usize,
                 guides: &self.guides,
                 sigma: &self.sigma,
                 levels: &self.levels,
@@ -373,19 +395,12 @@ impl Denoiser {
             };
             spatial::filter(
                 &inputs,
-                &self.cur,
-                &self.ratio_cur,
-                stats.levels,
-                spatial::Signals {
-                    un,
-                    sn,
-                    ratio: &mut self.ratio_out,
-                },
-                spatial::Signals {
-                    un: &mut self.scratch_un,
-                    sn: &mut self.scratch_sn,
-                    ratio: &mut self.ratio_scratch,
-                },
+                &self.acc,
+                &mut self.ping,
+                &mut self.pong,
+                stats.levels.min(spatial::MAX_LEVELS),
+                un,
+                sn,
                 settings,
             );
             stats.spatial_ms = t1.elapsed().as_secs_f64() * 1e3;

@@ -10,13 +10,24 @@
 //!
 //! Each tap's weight is computed once and multiplies both signals, so the
 //! ratio of the outputs is a weighted average of the same samples.
+//!
+//! Layout: every guide and signal is an `f32` plane ([`Planes`]), and a level
+//! runs over [`LANES`] neighbouring pixels of a row at once (one tile row:
+//! `LANES == TILE`), so each tap is one contiguous load per plane and the
+//! weight arithmetic is one vector instruction per operation. The planes
+//! carry a border of "no surface" pixels at least one step wide on every
+//! side: a tap that leaves the frame lands on it and gets weight 0 like any
+//! tap without a surface, so the tap loop has no bounds test.
 
-use super::history::History;
 use super::tiles::{TILE, Tiles};
-use super::{DenoiseSettings, Lobe, luminance, luminance_ratio};
+use super::{DenoiseSettings, Lobe};
 use glam::Vec3;
 use penumbra_isa::{self as isa, Kernel};
+use penumbra_scene::color::LUMA;
 use rayon::prelude::*;
+
+/// Pixels per lane group: one tile row.
+pub(crate) const LANES: usize = TILE;
 
 /// 1D B-spline-like kernel of one à-trous level (1/4, 1/2, 1/4).
 const KERNEL: [f32; 3] = [0.25, 0.5, 0.25];
@@ -31,245 +42,271 @@ pub fn falloff(e: f32) -> f32 {
     t4 * t4
 }
 
-/// What one tap needs of a pixel's guides, packed (44 bytes): the levels are
-/// bound by memory traffic, and three separate arrays meant three streams
-/// per tap.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Guide {
-    pub pos: Vec3,
-    pub normal: Vec3,
-    /// Luminance of `U`; negative where there is no surface.
-    pub lu: f32,
-    pub lobe: Lobe,
+/// Guide planes: position, normal, luminance of `U` (negative: no surface),
+/// mirror direction of the specular lobe and its weight `lobe_k` (the lobe's
+/// sharpness times the lobe scale times the pixel's confidence, see
+/// [`lobe_weight`]).
+pub(crate) mod guide {
+    pub const PX: usize = 0;
+    pub const PY: usize = 1;
+    pub const PZ: usize = 2;
+    pub const NX: usize = 3;
+    pub const NY: usize = 4;
+    pub const NZ: usize = 5;
+    pub const LU: usize = 6;
+    pub const DX: usize = 7;
+    pub const DY: usize = 8;
+    pub const DZ: usize = 9;
+    pub const LOBE_K: usize = 10;
+    pub const COUNT: usize = 11;
+}
+
+/// Signal planes: `U_N`, `S_N` and their luminance ratio (computed once
+/// when a level writes a pixel, not by every tap that reads it).
+pub(crate) mod signal {
+    pub const UR: usize = 0;
+    pub const SR: usize = 3;
+    pub const RATIO: usize = 6;
+    pub const COUNT: usize = 7;
+}
+
+/// `count` planes of `width` x `height` pixels with a border of `pad` pixels
+/// on every side, stored row by row: a padded row of plane 0, of plane 1,
+/// and so on, so one image row of every plane is one contiguous block that a
+/// parallel pass writes on its own. The border is written once, at
+/// allocation, and never again.
+pub(crate) struct Planes {
+    pub data: Vec<f32>,
+    pub count: usize,
+    /// Padded row length of one plane.
+    pub stride: usize,
+    pub pad: usize,
+    pub width: usize,
+    pub height: usize,
+}
+
+impl Planes {
+    /// Planes whose border holds `border[k]` in plane k (the interior too,
+    /// until the first frame writes it).
+    pub fn new(width: usize, height: usize, pad: usize, border: &[f32]) -> Planes {
+        let count = border.len();
+        // Whole lane groups per row, so the last tile of a row reads no
+        // further than the border.
+        let stride = pad + width.div_ceil(LANES) * LANES + pad;
+        let block = count * stride;
+        let mut data = vec![0.0; block * (height + 2 * pad)];
+        for row in data.chunks_mut(block) {
+            for (k, &b) in border.iter().enumerate() {
+                row[k * stride..(k + 1) * stride].fill(b);
+            }
+        }
+        Planes {
+            data,
+            count,
+            stride,
+            pad,
+            width,
+            height,
+        }
+    }
+
+    /// Index of pixel (x, y) of plane k.
+    #[inline(always)]
+    pub fn at(&self, k: usize, x: usize, y: usize) -> usize {
+        ((y + self.pad) * self.count + k) * self.stride + self.pad + x
+    }
+
+    /// Length of the block of one image row of every plane.
+    #[inline]
+    pub fn block(&self) -> usize {
+        self.count * self.stride
+    }
+
+    /// The blocks of the image rows (border rows excluded), for a parallel
+    /// pass over rows; within a block pixel x of plane k sits at
+    /// `k * stride + pad + x`.
+    pub fn par_rows_mut(&mut self) -> rayon::slice::ChunksMut<'_, f32> {
+        let block = self.block();
+        let (a, b) = (self.pad * block, (self.pad + self.height) * block);
+        self.data[a..b].par_chunks_mut(block)
+    }
+}
+
+/// Border value of each guide plane: no surface.
+pub(crate) const GUIDE_BORDER: [f32; guide::COUNT] =
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0];
+/// Border value of each signal plane.
+pub(crate) const SIGNAL_BORDER: [f32; signal::COUNT] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+
+/// Most à-trous levels run (radius 255 pixels): the border grows with the
+/// largest step.
+pub(crate) const MAX_LEVELS: u8 = 8;
+
+/// Border width that lets `levels` à-trous levels (largest step
+/// 2^(levels - 1)) run without bounds tests.
+pub(crate) fn pad_for(levels: u8) -> usize {
+    let step = 1usize << (levels.clamp(1, MAX_LEVELS) - 1);
+    step.max(LANES).div_ceil(LANES) * LANES
+}
+
+/// The lobe term's weight at a pixel: how sharp its specular lobe is,
+/// times the lobe scale, times how much of `U` its own samples carry
+/// (`confidence`). Sanitised: 0 unless finite and positive.
+#[inline(always)]
+pub(crate) fn lobe_weight(lobe: &Lobe, lobe_scale: f32, confidence: f32) -> f32 {
+    let k = lobe.sharpness * (lobe_scale * confidence);
+    if lobe.sharpness > 0.0 && k.is_finite() {
+        k
+    } else {
+        0.0
+    }
+}
+
+/// Luminance of `U_N` over that of `U`, in [0, 1]; 1 where `U` is dark.
+///
+/// A pixel whose samples carry almost none of `U` (a light sample far off a
+/// near-mirror's lobe: positive but negligible weight) still has a ratio of
+/// 0 or 1, which says nothing about its lobe; the lobe guide would keep
+/// every neighbour out and leave that value. Its lobe term is scaled down so
+/// the neighbours, weighted by their own `U_N`, decide.
+#[inline(always)]
+pub(crate) fn confidence(un_luminance: f32, lu: f32) -> f32 {
+    if lu > 1e-30 {
+        (un_luminance / lu).clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
 }
 
 /// Per-frame inputs of the filter besides the signals.
 pub(crate) struct Inputs<'a> {
-    pub width: usize,
-    pub guides: &'a [Guide],
-    /// Noise deviation of the accumulated ratio.
+    pub guides: &'a Planes,
+    /// Noise deviation of the accumulated ratio (row-major, unpadded).
     pub sigma: &'a [f32],
-    /// Levels each pixel takes part in.
+    /// Levels each pixel takes part in (row-major, unpadded).
     pub levels: &'a [u8],
     pub tiles: &'a Tiles,
 }
 
-/// One ping-pong buffer of the levels: both signals and their ratio, which is
-/// computed once when a level writes a pixel rather than by every tap that
-/// reads it.
-pub(crate) struct Signals<'a> {
-    pub un: &'a mut [Vec3],
-    pub sn: &'a mut [Vec3],
-    pub ratio: &'a mut [f32],
-}
-
-/// Read-only view of a source buffer of one level.
-#[derive(Clone, Copy)]
-struct Src<'a> {
-    un: &'a [Vec3],
-    sn: &'a [Vec3],
-    ratio: &'a [f32],
-}
-
-/// Runs `max_level` à-trous levels. Level 0 reads the accumulation kept in
-/// `cur` (its ratio in `cur_ratio`); the levels then ping-pong between
-/// `scratch` and `out` (the caller's signals) so that the last one lands in
-/// `out` without a final copy.
+/// Runs `max_level` à-trous levels. Level 0 reads the accumulation in
+/// `acc` (the temporal pass wrote it); the levels then ping-pong between
+/// `ping` and `pong`, and the last one writes the caller's `un`/`sn`
+/// directly, at the pixels that take part in at least one level (the rest
+/// already hold their accumulated values there).
 ///
-/// Skipped tiles are never touched by a level: the caller's buffers already
-/// hold their accumulated values (the temporal pass wrote them in place), and
-/// they are copied once into the scratch buffers (and their ratio into both
-/// ratio buffers) when a level reads those, so neighbouring taps see them
-/// whichever buffer they read.
+/// Skipped tiles are never touched by a level; their accumulated values are
+/// copied once into the ping-pong planes a level reads, so neighbouring taps
+/// see them whichever planes they read.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn filter(
     inp: &Inputs,
-    cur: &History,
-    cur_ratio: &[f32],
+    acc: &Planes,
+    ping: &mut Planes,
+    pong: &mut Planes,
     max_level: u8,
-    out: Signals,
-    scratch: Signals,
+    un: &mut [Vec3],
+    sn: &mut [Vec3],
     s: &DenoiseSettings,
 ) {
+    if max_level == 0 {
+        return;
+    }
     let ctx = Ctx {
         inp,
-        height: inp.guides.len() / inp.width,
         inv_plane2: 1.0 / (s.sigma_plane * s.sigma_plane).max(1e-12),
         normal_power: s.normal_power,
         inv_u: 1.0 / s.sigma_u.max(1e-6),
         sigma_ratio: s.sigma_ratio,
-        lobe_scale: s.lobe_scale,
-        acc_un: &cur.un,
     };
-    let (mut out, mut scratch) = (out, scratch);
+    // Level l >= 1 reads `ping` for odd l, `pong` for even l.
     if max_level >= 2 {
-        ctx.copy_skipped(cur, cur_ratio, &mut scratch);
+        ctx.copy_skipped(acc, ping);
     }
     if max_level >= 3 {
-        // Levels 2+ may read `out` as a source; its signals already hold the
-        // skipped tiles' values, their ratio does not yet.
-        out.ratio.copy_from_slice(cur_ratio);
+        ctx.copy_skipped(acc, pong);
     }
-    let cur_src = Src {
-        un: &cur.un,
-        sn: &cur.sn,
-        ratio: cur_ratio,
-    };
     for level in 0..max_level {
-        let to_caller = (max_level - 1 - level).is_multiple_of(2);
         let last = level + 1 == max_level;
-        match (level == 0, to_caller) {
-            (true, true) => ctx.level(level, cur_src, &mut out, last),
-            (true, false) => ctx.level(level, cur_src, &mut scratch, last),
-            (false, true) => ctx.level(level, view(&scratch), &mut out, last),
-            (false, false) => ctx.level(level, view(&out), &mut scratch, last),
+        let (src, dst): (&Planes, &mut Planes) = match (level, level % 2) {
+            (0, _) => (acc, &mut *ping),
+            (_, 1) => (&*ping, &mut *pong),
+            _ => (&*pong, &mut *ping),
+        };
+        if last {
+            ctx.level_out(level, src, un, sn);
+        } else {
+            ctx.level(level, src, dst);
         }
-    }
-}
-
-fn view<'a>(s: &'a Signals) -> Src<'a> {
-    Src {
-        un: s.un,
-        sn: s.sn,
-        ratio: s.ratio,
     }
 }
 
 struct Ctx<'a> {
     inp: &'a Inputs<'a>,
-    height: usize,
     inv_plane2: f32,
     normal_power: f32,
     inv_u: f32,
     sigma_ratio: f32,
-    lobe_scale: f32,
-    /// The accumulated `U_N` (the levels' input), for each pixel's confidence.
-    acc_un: &'a [Vec3],
 }
 
 impl Ctx<'_> {
     /// Copies the accumulated values of skipped tiles into `dst`.
-    fn copy_skipped(&self, cur: &History, cur_ratio: &[f32], dst: &mut Signals) {
-        let w = self.inp.width;
+    fn copy_skipped(&self, acc: &Planes, dst: &mut Planes) {
         let tiles = self.inp.tiles;
-        (
-            dst.un.par_chunks_mut(w),
-            dst.sn.par_chunks_mut(w),
-            dst.ratio.par_chunks_mut(w),
-        )
-            .into_par_iter()
-            .enumerate()
-            .for_each(|(y, (du, ds, dr))| {
-                let row = y * w;
-                for tx in 0..tiles.columns() {
-                    if tiles.skipped(tx, y / TILE) {
-                        let (x0, x1) = (tx * TILE, (tx * TILE + TILE).min(w));
-                        du[x0..x1].copy_from_slice(&cur.un[row + x0..row + x1]);
-                        ds[x0..x1].copy_from_slice(&cur.sn[row + x0..row + x1]);
-                        dr[x0..x1].copy_from_slice(&cur_ratio[row + x0..row + x1]);
+        let (stride, pad, w) = (acc.stride, acc.pad, acc.width);
+        let block = acc.block();
+        let a0 = acc.pad * block;
+        dst.par_rows_mut().enumerate().for_each(|(y, row)| {
+            let from = &acc.data[a0 + y * block..a0 + (y + 1) * block];
+            for tx in 0..tiles.columns() {
+                if tiles.skipped(tx, y / TILE) {
+                    let (x0, x1) = (pad + tx * TILE, pad + (tx * TILE + TILE).min(w));
+                    for k in 0..signal::COUNT {
+                        let o = k * stride;
+                        row[o + x0..o + x1].copy_from_slice(&from[o + x0..o + x1]);
                     }
                 }
-            });
+            }
+        });
     }
 
-    /// One à-trous level with step 2^level over the tiles not skipped,
-    /// parallel over rows. The last level's ratio is never read, so it is not
-    /// computed.
-    fn level(&self, level: u8, src: Src, dst: &mut Signals, last: bool) {
-        let w = self.inp.width;
-        (
-            dst.un.par_chunks_mut(w),
-            dst.sn.par_chunks_mut(w),
-            dst.ratio.par_chunks_mut(w),
-        )
+    /// One à-trous level with step 2^level into planes, over the tiles not
+    /// skipped, parallel over rows.
+    fn level(&self, level: u8, src: &Planes, dst: &mut Planes) {
+        dst.par_rows_mut().enumerate().for_each(|(y, row)| {
+            isa::run(LevelRow {
+                ctx: self,
+                level,
+                src,
+                y,
+                dst: Dst::Planes(row),
+            })
+        });
+    }
+
+    /// The last level: writes the caller's signals.
+    fn level_out(&self, level: u8, src: &Planes, un: &mut [Vec3], sn: &mut [Vec3]) {
+        let w = src.width;
+        (un.par_chunks_mut(w), sn.par_chunks_mut(w))
             .into_par_iter()
             .enumerate()
-            .for_each(|(y, (du, ds, dr))| {
+            .for_each(|(y, (u, s))| {
                 isa::run(LevelRow {
                     ctx: self,
                     level,
                     src,
                     y,
-                    dst: (du, ds, dr),
-                    last,
+                    dst: Dst::Caller(u, s),
                 })
             });
     }
+}
 
-    /// Weighted 3x3 sum at step 2^level around (x, y); one weight per tap for
-    /// both signals.
-    #[inline(always)]
-    fn tap_sum(&self, level: u8, x: usize, y: usize, src: Src) -> (Vec3, Vec3) {
-        let inp = self.inp;
-        let (w, h) = (inp.width, self.height);
-        let i = y * w + x;
-        let p = inp.guides[i];
-        let step = 1usize << level;
-        // The ratio the taps are compared with. At level 0 the centre is one
-        // noisy sample: compared with itself, an outlier (one lit sample in
-        // a shadow) stops every tap and survives as a speckle. Its 3x3 mean
-        // is robust to that; later levels read filtered values already.
-        let rp = if level == 0 {
-            self.mean_ratio(x, y, src)
-        } else {
-            src.ratio[i]
-        };
-        // The ratio's noise shrinks about twofold per level already run.
-        let sig = (inp.sigma[i] * self.sigma_ratio / step as f32).max(1e-4);
-        let inv_sig = 1.0 / sig;
-        // How much of `U` this pixel's own samples carry (1 on average).
-        // A pixel whose samples carry almost none (a light sample far off a
-        // near-mirror's lobe: positive but negligible weight) still has a
-        // ratio of 0 or 1, which says nothing about its lobe; the lobe
-        // guide would keep every neighbour out and leave that value. Its
-        // lobe term is scaled down so the neighbours, weighted by their own
-        // `U_N`, decide.
-        let lobe_scale = self.lobe_scale * confidence(self.acc_un[i], p.lu);
-        let hc = KERNEL[1] * KERNEL[1];
-        let mut su = src.un[i] * hc;
-        let mut ss = src.sn[i] * hc;
-        let mut wsum = hc;
-        for (ky, &hy) in KERNEL.iter().enumerate() {
-            let Some(ty) = offset(y, ky, step, h) else {
-                continue;
-            };
-            for (kx, &hx) in KERNEL.iter().enumerate() {
-                if kx == 1 && ky == 1 {
-                    continue;
-                }
-                let Some(tx) = offset(x, kx, step, w) else {
-                    continue;
-                };
-                let j = ty * w + tx;
-                let q = inp.guides[j];
-                if q.lu < 0.0 {
-                    continue; // no surface
-                }
-                // Plane: squared sine of the angle between p's tangent plane
-                // and the direction to q; scale-free, 0 on a common plane.
-                let d = q.pos - p.pos;
-                let dn = p.normal.dot(d);
-                let e_plane = dn * dn * self.inv_plane2 / (d.length_squared() + 1e-30);
-                let e_normal = (1.0 - p.normal.dot(q.normal)).max(0.0) * self.normal_power;
-                let big = p.lu.max(q.lu);
-                let e_u = if big > 1e-30 {
-                    (p.lu - q.lu).abs() * self.inv_u / big
-                } else {
-                    0.0
-                };
-                let e_r = (rp - src.ratio[j]).abs() * inv_sig;
-                // Sharp shadows seen through a narrow specular lobe.
-                let e_lobe = p.lobe.separation2(&q.lobe) * lobe_scale;
-                let wt = hx * hy * falloff(e_plane + e_normal + e_u + e_r + e_lobe);
-                if wt > 0.0 {
-                    su += src.un[j] * wt;
-                    ss += src.sn[j] * wt;
-                    wsum += wt;
-                }
-            }
-        }
-        let inv = 1.0 / wsum;
-        (su * inv, ss * inv)
-    }
+/// Where one row of a level goes.
+enum Dst<'b> {
+    /// The row's block of the next level's planes.
+    Planes(&'b mut [f32]),
+    /// The caller's `U_N` and `S_N` rows (the last level).
+    Caller(&'b mut [Vec3], &'b mut [Vec3]),
 }
 
 /// One row of one à-trous level: the level's hot loop, compiled per
@@ -277,10 +314,148 @@ impl Ctx<'_> {
 struct LevelRow<'a, 'b> {
     ctx: &'a Ctx<'a>,
     level: u8,
-    src: Src<'a>,
+    src: &'a Planes,
     y: usize,
-    dst: (&'b mut [Vec3], &'b mut [Vec3], &'b mut [f32]),
-    last: bool,
+    dst: Dst<'b>,
+}
+
+/// Lane arithmetic: every operation a fixed loop over the lanes, inlined,
+/// which LLVM turns into one vector instruction per operation (one loop
+/// over a whole tap's arithmetic stayed scalar at the AVX2 level). Each
+/// lane computes exactly what the scalar code would, so the vector width
+/// never changes a result.
+mod lanes {
+    use super::LANES;
+    use std::ops::{Add, Div, Mul, Sub};
+
+    #[inline(always)]
+    fn each<T: Copy + Default>(f: impl Fn(usize) -> T) -> [T; LANES] {
+        let mut a = [T::default(); LANES];
+        for (l, x) in a.iter_mut().enumerate() {
+            *x = f(l);
+        }
+        a
+    }
+
+    /// One `f32` per lane.
+    #[derive(Clone, Copy, Debug, Default)]
+    pub struct V(pub [f32; LANES]);
+
+    /// All ones or all zeros per lane.
+    #[derive(Clone, Copy, Debug)]
+    pub struct M([u32; LANES]);
+
+    #[inline(always)]
+    fn bit(b: bool) -> u32 {
+        u32::from(b).wrapping_neg()
+    }
+
+    impl V {
+        #[inline(always)]
+        pub fn splat(x: f32) -> V {
+            V([x; LANES])
+        }
+        /// The lanes of `v` from `at`.
+        #[inline(always)]
+        pub fn load(v: &[f32], at: usize) -> V {
+            let mut out = [0.0; LANES];
+            out.copy_from_slice(&v[at..at + LANES]);
+            V(out)
+        }
+        #[inline(always)]
+        pub fn store(self, v: &mut [f32], at: usize) {
+            v[at..at + LANES].copy_from_slice(&self.0);
+        }
+        /// `self` where larger than `o`, else `o` (so a NaN lane gives `o`).
+        #[inline(always)]
+        pub fn max(self, o: V) -> V {
+            V(each(|l| {
+                if self.0[l] > o.0[l] {
+                    self.0[l]
+                } else {
+                    o.0[l]
+                }
+            }))
+        }
+        /// `self` where smaller than `o`, else `o`.
+        #[inline(always)]
+        pub fn min(self, o: V) -> V {
+            V(each(|l| {
+                if self.0[l] < o.0[l] {
+                    self.0[l]
+                } else {
+                    o.0[l]
+                }
+            }))
+        }
+        #[inline(always)]
+        pub fn abs(self) -> V {
+            V(each(|l| self.0[l].abs()))
+        }
+        #[inline(always)]
+        pub fn gt(self, o: V) -> M {
+            M(each(|l| bit(self.0[l] > o.0[l])))
+        }
+        #[inline(always)]
+        pub fn ge(self, o: V) -> M {
+            M(each(|l| bit(self.0[l] >= o.0[l])))
+        }
+        #[inline(always)]
+        pub fn lt(self, o: V) -> M {
+            M(each(|l| bit(self.0[l] < o.0[l])))
+        }
+    }
+
+    impl M {
+        #[inline(always)]
+        pub fn from_fn(f: impl Fn(usize) -> bool) -> M {
+            M(each(|l| bit(f(l))))
+        }
+        /// `a` where set, `b` elsewhere.
+        #[inline(always)]
+        pub fn select(self, a: V, b: V) -> V {
+            // Bitwise: written as an `if`, LLVM may pick between the
+            // operands lane by lane.
+            V(each(|l| {
+                f32::from_bits((a.0[l].to_bits() & self.0[l]) | (b.0[l].to_bits() & !self.0[l]))
+            }))
+        }
+        #[inline(always)]
+        pub fn and(self, o: M) -> M {
+            M(each(|l| self.0[l] & o.0[l]))
+        }
+    }
+
+    macro_rules! binop {
+        ($tr:ident, $f:ident, $op:tt) => {
+            impl $tr for V {
+                type Output = V;
+                #[inline(always)]
+                fn $f(self, o: V) -> V {
+                    V(each(|l| self.0[l] $op o.0[l]))
+                }
+            }
+            impl $tr<f32> for V {
+                type Output = V;
+                #[inline(always)]
+                fn $f(self, o: f32) -> V {
+                    V(each(|l| self.0[l] $op o))
+                }
+            }
+        };
+    }
+    binop!(Add, add, +);
+    binop!(Sub, sub, -);
+    binop!(Mul, mul, *);
+    binop!(Div, div, /);
+}
+
+use lanes::{M, V};
+
+/// The filtered lanes of one lane group: `U_N` and `S_N` channels.
+struct Filtered {
+    u: [V; 3],
+    s: [V; 3],
 }
 
 impl Kernel for LevelRow<'_, '_> {
@@ -292,28 +467,56 @@ impl Kernel for LevelRow<'_, '_> {
             level,
             src,
             y,
-            dst: (du, ds, dr),
-            last,
+            mut dst,
         } = self;
-        let w = ctx.inp.width;
+        let w = src.width;
         let tiles = ctx.inp.tiles;
-        let row = y * w;
+        let g = ctx.inp.guides;
         for tx in 0..tiles.columns() {
             if tiles.skipped(tx, y / TILE) {
                 continue;
             }
-            for x in tx * TILE..(tx * TILE + TILE).min(w) {
-                let i = row + x;
-                if ctx.inp.levels[i] <= level {
-                    du[x] = src.un[i];
-                    ds[x] = src.sn[i];
-                    dr[x] = src.ratio[i];
-                } else {
-                    let (u, s) = ctx.tap_sum(level, x, y, src);
-                    du[x] = u;
-                    ds[x] = s;
-                    if !last {
-                        dr[x] = luminance_ratio(s, u);
+            let x0 = tx * LANES;
+            let n = LANES.min(w - x0);
+            let mut lv = [0u8; LANES];
+            lv[..n].copy_from_slice(&ctx.inp.levels[y * w + x0..y * w + x0 + n]);
+            let active = lv.iter().any(|&l| l > level);
+            // Source values: what a pixel that takes no part in this level
+            // passes on.
+            let mut val = [V::default(); 6];
+            for (k, v) in val.iter_mut().enumerate() {
+                *v = V::load(&src.data, src.at(k, x0, y));
+            }
+            let mut ratio = V::load(&src.data, src.at(signal::RATIO, x0, y));
+            if active {
+                let mut sigma = V::default();
+                sigma.0[..n].copy_from_slice(&ctx.inp.sigma[y * w + x0..y * w + x0 + n]);
+                let f = ctx.taps(level, src, g, x0, y, sigma);
+                let take = M::from_fn(|l| lv[l] > level);
+                for c in 0..3 {
+                    val[c] = take.select(f.u[c], val[c]);
+                    val[3 + c] = take.select(f.s[c], val[3 + c]);
+                }
+                if let Dst::Planes(_) = dst {
+                    ratio = take.select(ratio_lanes(&f), ratio);
+                }
+            }
+            match &mut dst {
+                Dst::Planes(row) => {
+                    let o = src.pad + x0;
+                    for (k, v) in val.iter().enumerate() {
+                        v.store(row, k * src.stride + o);
+                    }
+                    ratio.store(row, signal::RATIO * src.stride + o);
+                }
+                Dst::Caller(u, s) => {
+                    // Pixels in no level keep the accumulated value already
+                    // there (and a pixel without a surface its input).
+                    for l in 0..n {
+                        if lv[l] > 0 {
+                            u[x0 + l] = Vec3::new(val[0].0[l], val[1].0[l], val[2].0[l]);
+                            s[x0 + l] = Vec3::new(val[3].0[l], val[4].0[l], val[5].0[l]);
+                        }
                     }
                 }
             }
@@ -321,45 +524,130 @@ impl Kernel for LevelRow<'_, '_> {
     }
 }
 
+/// Luminance per lane.
+#[inline(always)]
+fn luma(c: &[V; 3]) -> V {
+    c[0] * LUMA.x + c[1] * LUMA.y + c[2] * LUMA.z
+}
+
+/// `luminance_ratio` per lane.
+#[inline(always)]
+fn ratio_lanes(f: &Filtered) -> V {
+    let lu = luma(&f.u);
+    let ls = luma(&f.s);
+    let ok = lu
+        .gt(V::splat(1e-30))
+        .and(lu.abs().lt(V::splat(f32::INFINITY)));
+    let q = ls / ok.select(lu, V::splat(1.0));
+    ok.select(q.max(V::splat(0.0)).min(V::splat(1.0)), V::splat(1.0))
+}
+
+/// `falloff` per lane.
+#[inline(always)]
+fn falloff_lanes(e: V) -> V {
+    let t = (V::splat(1.0) - e * 0.125).max(V::splat(0.0));
+    let t2 = t * t;
+    let t4 = t2 * t2;
+    t4 * t4
+}
+
 impl Ctx<'_> {
-    /// Mean ratio over the surface pixels of the 3x3 block around (x, y).
+    /// Weighted 3x3 sums at step 2^level around the lane group at (x0, y);
+    /// one weight per tap and lane for both signals.
     #[inline(always)]
-    fn mean_ratio(&self, x: usize, y: usize, src: Src) -> f32 {
-        let (w, h) = (self.inp.width, self.height);
-        let (mut sum, mut n) = (0.0f32, 0.0f32);
-        for ty in y.saturating_sub(1)..(y + 2).min(h) {
-            for tx in x.saturating_sub(1)..(x + 2).min(w) {
-                let j = ty * w + tx;
-                if self.inp.guides[j].lu >= 0.0 {
-                    sum += src.ratio[j];
-                    n += 1.0;
+    fn taps(&self, level: u8, src: &Planes, g: &Planes, x0: usize, y: usize, sigma: V) -> Filtered {
+        use guide::*;
+        let step = 1usize << level;
+        let gc = g.at(0, x0, y);
+        let sc = src.at(0, x0, y);
+        let gi = |k: usize| V::load(&g.data, gc + k * g.stride);
+        let (px, py, pz) = (gi(PX), gi(PY), gi(PZ));
+        let (nx, ny, nz) = (gi(NX), gi(NY), gi(NZ));
+        let lu = gi(LU);
+        let (dx, dy, dz) = (gi(DX), gi(DY), gi(DZ));
+        let lobe_k = gi(LOBE_K);
+        let (gs, ss) = (g.block() as isize, src.block() as isize);
+        let tap_at = |c: usize, row_block: isize, kx: usize, ky: usize, st: usize| {
+            let off = (ky as isize - 1) * st as isize * row_block + (kx as isize - 1) * st as isize;
+            c.wrapping_add_signed(off)
+        };
+        let zero = V::splat(0.0);
+
+        // The ratio the taps are compared with. At level 0 the centre is one
+        // noisy sample: compared with itself, an outlier (one lit sample in
+        // a shadow) stops every tap and survives as a speckle. Its 3x3 mean
+        // over the surface pixels is robust to that; later levels read
+        // filtered values already.
+        let rp = if level == 0 {
+            let (mut sum, mut cnt) = (zero, zero);
+            for ky in 0..3 {
+                for kx in 0..3 {
+                    let ql = V::load(&g.data, tap_at(gc + LU * g.stride, gs, kx, ky, 1));
+                    let qr = V::load(
+                        &src.data,
+                        tap_at(sc + signal::RATIO * src.stride, ss, kx, ky, 1),
+                    );
+                    let v = ql.ge(zero);
+                    sum = sum + v.select(qr, zero);
+                    cnt = cnt + v.select(V::splat(1.0), zero);
                 }
             }
-        }
-        if n > 0.0 {
-            sum / n
+            sum / cnt.max(V::splat(1.0))
         } else {
-            src.ratio[y * w + x]
+            V::load(&src.data, sc + signal::RATIO * src.stride)
+        };
+        // The ratio's noise shrinks about twofold per level already run.
+        let inv_sig = V::splat(1.0) / (sigma * self.sigma_ratio / step as f32).max(V::splat(1e-4));
+
+        let hc = KERNEL[1] * KERNEL[1];
+        let mut u = [V::default(); 3];
+        let mut s = [V::default(); 3];
+        for c in 0..3 {
+            u[c] = V::load(&src.data, sc + (signal::UR + c) * src.stride) * hc;
+            s[c] = V::load(&src.data, sc + (signal::SR + c) * src.stride) * hc;
         }
-    }
-}
-
-/// Luminance of `U_N` over that of `U`, in [0, 1]; 1 where `U` is dark.
-#[inline(always)]
-fn confidence(un: Vec3, lu: f32) -> f32 {
-    if lu > 1e-30 {
-        (luminance(un) / lu).clamp(0.0, 1.0)
-    } else {
-        1.0
-    }
-}
-
-/// Coordinate of kernel index k (0, 1, 2 = -step, 0, +step), if inside.
-#[inline(always)]
-fn offset(c: usize, k: usize, step: usize, n: usize) -> Option<usize> {
-    match k {
-        0 => c.checked_sub(step),
-        1 => Some(c),
-        _ => Some(c + step).filter(|&v| v < n),
+        let mut wsum = V::splat(hc);
+        for (ky, &hy) in KERNEL.iter().enumerate() {
+            for (kx, &hx) in KERNEL.iter().enumerate() {
+                if kx == 1 && ky == 1 {
+                    continue;
+                }
+                let gq = tap_at(gc, gs, kx, ky, step);
+                let gl = |k: usize| V::load(&g.data, gq + k * g.stride);
+                let sq = tap_at(sc, ss, kx, ky, step);
+                let sl = |k: usize| V::load(&src.data, sq + k * src.stride);
+                let ql = gl(LU);
+                // Plane: squared sine of the angle between p's tangent
+                // plane and the direction to q; scale-free, 0 on a common
+                // plane.
+                let (ddx, ddy, ddz) = (gl(PX) - px, gl(PY) - py, gl(PZ) - pz);
+                let dn = nx * ddx + ny * ddy + nz * ddz;
+                let d2 = ddx * ddx + ddy * ddy + ddz * ddz;
+                let e_plane = dn * dn * self.inv_plane2 / (d2 + 1e-30);
+                let nd = nx * gl(NX) + ny * gl(NY) + nz * gl(NZ);
+                let e_normal = (V::splat(1.0) - nd).max(zero) * self.normal_power;
+                let big = lu.max(ql);
+                let ok_u = big.gt(V::splat(1e-30));
+                let e_u = (lu - ql).abs() * self.inv_u / ok_u.select(big, V::splat(1.0));
+                let e_u = ok_u.select(e_u, zero);
+                let e_r = (rp - sl(signal::RATIO)).abs() * inv_sig;
+                // Sharp shadows seen through a narrow specular lobe.
+                let (lx, ly, lz) = (dx - gl(DX), dy - gl(DY), dz - gl(DZ));
+                let e_lobe = (lx * lx + ly * ly + lz * lz) * lobe_k;
+                let f = falloff_lanes(e_plane + e_normal + e_u + e_r + e_lobe) * (hx * hy);
+                // No surface at q (or off the frame): no weight.
+                let wt = ql.ge(zero).select(f, zero);
+                for c in 0..3 {
+                    u[c] = u[c] + sl(signal::UR + c) * wt;
+                    s[c] = s[c] + sl(signal::SR + c) * wt;
+                }
+                wsum = wsum + wt;
+            }
+        }
+        let inv = V::splat(1.0) / wsum;
+        Filtered {
+            u: u.map(|c| c * inv),
+            s: s.map(|c| c * inv),
+        }
     }
 }

@@ -6,7 +6,7 @@
 //! only on the history length, never on the signal values.
 
 use super::history::{History, Meta, decode_normal, encode_normal};
-use super::spatial::Guide;
+use super::spatial::{self, Planes, guide};
 use super::tiles::{self, TILE};
 use super::{DenoiseSettings, GuideBuffers, luminance, luminance_ratio};
 use glam::{Vec2, Vec3};
@@ -50,8 +50,8 @@ pub(crate) fn accumulate(
     guide: &GuideBuffers,
     prev: &History,
     cur: &mut History,
-    guides: &mut [Guide],
-    acc_ratio: &mut [f32],
+    guides: &mut Planes,
+    acc: &mut Planes,
     raw_ratio: &mut [f32],
     row_class: &mut [u8],
     un: &mut [Vec3],
@@ -62,11 +62,13 @@ pub(crate) fn accumulate(
     let w = guide.width as usize;
     let cap = settings.max_history.max(1) as f32;
     let tw = w.div_ceil(TILE);
+    let (gs, gp) = (guides.stride, guides.pad);
+    let (ss, sp) = (acc.stride, acc.pad);
     (
         cur.un.par_chunks_mut(w),
         cur.sn.par_chunks_mut(w),
         cur.meta.par_chunks_mut(w),
-        (guides.par_chunks_mut(w), acc_ratio.par_chunks_mut(w)),
+        (guides.par_rows_mut(), acc.par_rows_mut()),
         raw_ratio.par_chunks_mut(w),
         row_class.par_chunks_mut(tw),
         un.par_chunks_mut(w),
@@ -75,6 +77,18 @@ pub(crate) fn accumulate(
         .into_par_iter()
         .enumerate()
         .for_each(|(y, (h_un, h_sn, h_meta, (gd, ar), raw, class, un, sn))| {
+            // One pixel's guides and accumulated signals into the planes.
+            let mut put_guide = |x: usize, v: [f32; guide::COUNT]| {
+                for (k, v) in v.into_iter().enumerate() {
+                    gd[k * gs + gp + x] = v;
+                }
+            };
+            let mut put_signal = |x: usize, u: Vec3, s: Vec3, r: f32| {
+                let v = [u.x, u.y, u.z, s.x, s.y, s.z, r];
+                for (k, v) in v.into_iter().enumerate() {
+                    ar[k * ss + sp + x] = v;
+                }
+            };
             // Tile classification rides along: this pass reads every pixel
             // anyway, a separate pass would read them all again.
             class.fill(tiles::UNIFORM);
@@ -87,8 +101,10 @@ pub(crate) fn accumulate(
                     h_un[x] = un[x];
                     h_sn[x] = sn[x];
                     h_meta[x] = Meta::default();
-                    gd[x].lu = -1.0;
-                    ar[x] = luminance_ratio(sn[x], un[x]);
+                    // No surface: every tap gives it weight 0, and the filter
+                    // never writes it; its planes only need to be finite.
+                    put_guide(x, spatial::GUIDE_BORDER);
+                    put_signal(x, Vec3::ZERO, Vec3::ZERO, 1.0);
                     raw[x] = 1.0;
                     continue;
                 }
@@ -158,13 +174,27 @@ pub(crate) fn accumulate(
                     m2,
                     len,
                 };
-                gd[x] = Guide {
-                    pos,
-                    normal,
-                    lu,
-                    lobe: guide.lobe.get(i).copied().unwrap_or_default(),
+                let lobe = guide.lobe.get(i).copied().unwrap_or_default();
+                let lobe_k = spatial::lobe_weight(
+                    &lobe,
+                    settings.lobe_scale,
+                    spatial::confidence(luminance(acc_u), lu),
+                );
+                // Taps compare their own direction with this one whatever
+                // this pixel's weight; keep it finite.
+                let dir = if lobe.dir.is_finite() {
+                    lobe.dir
+                } else {
+                    Vec3::ZERO
                 };
-                ar[x] = luminance_ratio(acc_s, acc_u);
+                put_guide(
+                    x,
+                    [
+                        pos.x, pos.y, pos.z, normal.x, normal.y, normal.z, lu, dir.x, dir.y, dir.z,
+                        lobe_k,
+                    ],
+                );
+                put_signal(x, acc_u, acc_s, luminance_ratio(acc_s, acc_u));
                 raw[x] = r;
                 class[x / TILE] &= tiles::pixel_class(acc_u, acc_s);
             }
