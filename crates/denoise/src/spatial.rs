@@ -116,6 +116,21 @@ impl Planes {
         ((y + self.pad) * self.count + k) * self.stride + self.pad + x
     }
 
+    /// Index of pixel (x, y) in every plane's view ([`Planes::views`]).
+    #[inline(always)]
+    pub fn index(&self, x: usize, y: usize) -> usize {
+        (y + self.pad) * self.block() + self.pad + x
+    }
+
+    /// Each plane as a slice in which pixel (x, y) sits at
+    /// [`Planes::index`], all of the same length: one bounds test on an
+    /// index then serves that pixel of every plane.
+    #[inline(always)]
+    pub fn views<const N: usize>(&self) -> [&[f32]; N] {
+        let len = self.data.len() - (N - 1) * self.stride;
+        std::array::from_fn(|k| &self.data[k * self.stride..k * self.stride + len])
+    }
+
     /// Length of the block of one image row of every plane.
     #[inline]
     pub fn block(&self) -> usize {
@@ -324,7 +339,7 @@ struct LevelRow<'a, 'b> {
 /// over a whole tap's arithmetic stayed scalar at the AVX2 level). Each
 /// lane computes exactly what the scalar code would, so the vector width
 /// never changes a result.
-mod lanes {
+pub(crate) mod lanes {
     use super::LANES;
     use std::ops::{Add, Div, Mul, Sub};
 
@@ -399,6 +414,14 @@ mod lanes {
         #[inline(always)]
         pub fn ge(self, o: V) -> M {
             M(each(|l| bit(self.0[l] >= o.0[l])))
+        }
+        #[inline(always)]
+        pub fn le(self, o: V) -> M {
+            M(each(|l| bit(self.0[l] <= o.0[l])))
+        }
+        #[inline(always)]
+        pub fn sqrt(self) -> V {
+            V(each(|l| self.0[l].sqrt()))
         }
         #[inline(always)]
         pub fn lt(self, o: V) -> M {
@@ -558,9 +581,11 @@ impl Ctx<'_> {
     fn taps(&self, level: u8, src: &Planes, g: &Planes, x0: usize, y: usize, sigma: V) -> Filtered {
         use guide::*;
         let step = 1usize << level;
-        let gc = g.at(0, x0, y);
-        let sc = src.at(0, x0, y);
-        let gi = |k: usize| V::load(&g.data, gc + k * g.stride);
+        let gv: [&[f32]; guide::COUNT] = g.views();
+        let sv: [&[f32]; signal::COUNT] = src.views();
+        let gc = g.index(x0, y);
+        let sc = src.index(x0, y);
+        let gi = |k: usize| V::load(gv[k], gc);
         let (px, py, pz) = (gi(PX), gi(PY), gi(PZ));
         let (nx, ny, nz) = (gi(NX), gi(NY), gi(NZ));
         let lu = gi(LU);
@@ -582,11 +607,8 @@ impl Ctx<'_> {
             let (mut sum, mut cnt) = (zero, zero);
             for ky in 0..3 {
                 for kx in 0..3 {
-                    let ql = V::load(&g.data, tap_at(gc + LU * g.stride, gs, kx, ky, 1));
-                    let qr = V::load(
-                        &src.data,
-                        tap_at(sc + signal::RATIO * src.stride, ss, kx, ky, 1),
-                    );
+                    let ql = V::load(gv[LU], tap_at(gc, gs, kx, ky, 1));
+                    let qr = V::load(sv[signal::RATIO], tap_at(sc, ss, kx, ky, 1));
                     let v = ql.ge(zero);
                     sum = sum + v.select(qr, zero);
                     cnt = cnt + v.select(V::splat(1.0), zero);
@@ -594,7 +616,7 @@ impl Ctx<'_> {
             }
             sum / cnt.max(V::splat(1.0))
         } else {
-            V::load(&src.data, sc + signal::RATIO * src.stride)
+            V::load(sv[signal::RATIO], sc)
         };
         // The ratio's noise shrinks about twofold per level already run.
         let inv_sig = V::splat(1.0) / (sigma * self.sigma_ratio / step as f32).max(V::splat(1e-4));
@@ -603,8 +625,8 @@ impl Ctx<'_> {
         let mut u = [V::default(); 3];
         let mut s = [V::default(); 3];
         for c in 0..3 {
-            u[c] = V::load(&src.data, sc + (signal::UR + c) * src.stride) * hc;
-            s[c] = V::load(&src.data, sc + (signal::SR + c) * src.stride) * hc;
+            u[c] = V::load(sv[signal::UR + c], sc) * hc;
+            s[c] = V::load(sv[signal::SR + c], sc) * hc;
         }
         let mut wsum = V::splat(hc);
         for (ky, &hy) in KERNEL.iter().enumerate() {
@@ -613,9 +635,9 @@ impl Ctx<'_> {
                     continue;
                 }
                 let gq = tap_at(gc, gs, kx, ky, step);
-                let gl = |k: usize| V::load(&g.data, gq + k * g.stride);
+                let gl = |k: usize| V::load(gv[k], gq);
                 let sq = tap_at(sc, ss, kx, ky, step);
-                let sl = |k: usize| V::load(&src.data, sq + k * src.stride);
+                let sl = |k: usize| V::load(sv[k], sq);
                 let ql = gl(LU);
                 // Plane: squared sine of the angle between p's tangent
                 // plane and the direction to q; scale-free, 0 on a common

@@ -6,14 +6,36 @@
 //! only on the history length, never on the signal values.
 
 use super::history::{History, Meta, decode_normal, encode_normal};
-use super::spatial::{self, Planes, guide};
+use super::spatial::lanes::{M, V};
+use super::spatial::{self, LANES, Planes};
 use super::tiles::{self, TILE};
 use super::{DenoiseSettings, GuideBuffers, luminance, luminance_ratio};
 use glam::{Vec2, Vec3};
+use penumbra_isa::{self as isa, Kernel};
 use rayon::prelude::*;
 
+/// One pixel's inputs to the reprojection and the blend.
+#[derive(Clone, Copy, Default)]
+struct Pixel {
+    surface: bool,
+    /// Reprojection asked for (temporal on, motion vector valid).
+    want: bool,
+    skipped: u8,
+    depth: f32,
+    u_in: Vec3,
+    s_in: Vec3,
+    /// Raw ratio of this frame.
+    r: f32,
+    lu: f32,
+    lu_diffuse: f32,
+    pos: Vec3,
+    normal: Vec3,
+    /// Motion vector's end in the previous frame.
+    at: Vec2,
+}
+
 /// History reprojected to one pixel.
-struct Reprojected {
+struct History1 {
     un: Vec3,
     sn: Vec3,
     m1: f32,
@@ -21,17 +43,29 @@ struct Reprojected {
     len: f32,
 }
 
-/// Weighted sums over the valid reprojection taps.
+/// History reprojected to a lane group: per lane whether there is one, and
+/// its values.
 #[derive(Default)]
-struct Acc {
-    wsum: f32,
-    un: Vec3,
-    sn: Vec3,
-    m1: f32,
-    m2: f32,
-    len: f32,
-    lu: f32,
-    lu_diffuse: f32,
+struct Reprojected {
+    ok: [bool; LANES],
+    un: [V; 3],
+    sn: [V; 3],
+    m1: V,
+    m2: V,
+    len: V,
+}
+
+impl Reprojected {
+    #[inline(always)]
+    fn pixel(&self, l: usize) -> Option<History1> {
+        self.ok[l].then(|| History1 {
+            un: Vec3::new(self.un[0].0[l], self.un[1].0[l], self.un[2].0[l]),
+            sn: Vec3::new(self.sn[0].0[l], self.sn[1].0[l], self.sn[2].0[l]),
+            m1: self.m1.0[l],
+            m2: self.m2.0[l],
+            len: self.len.0[l],
+        })
+    }
 }
 
 /// Non-finite or negative input would poison the history (the denoiser's
@@ -60,7 +94,6 @@ pub(crate) fn accumulate(
     settings: &DenoiseSettings,
 ) {
     let w = guide.width as usize;
-    let cap = settings.max_history.max(1) as f32;
     let tw = w.div_ceil(TILE);
     let (gs, gp) = (guides.stride, guides.pad);
     let (ss, sp) = (acc.stride, acc.pad);
@@ -77,40 +110,101 @@ pub(crate) fn accumulate(
         .into_par_iter()
         .enumerate()
         .for_each(|(y, (h_un, h_sn, h_meta, (gd, ar), raw, class, un, sn))| {
-            // One pixel's guides and accumulated signals into the planes.
-            let mut put_guide = |x: usize, v: [f32; guide::COUNT]| {
-                for (k, v) in v.into_iter().enumerate() {
-                    gd[k * gs + gp + x] = v;
-                }
-            };
-            let mut put_signal = |x: usize, u: Vec3, s: Vec3, r: f32| {
-                let v = [u.x, u.y, u.z, s.x, s.y, s.z, r];
-                for (k, v) in v.into_iter().enumerate() {
-                    ar[k * ss + sp + x] = v;
-                }
-            };
-            // Tile classification rides along: this pass reads every pixel
-            // anyway, a separate pass would read them all again.
-            class.fill(tiles::UNIFORM);
-            for x in 0..w {
+            isa::run(Row {
+                guide,
+                prev,
+                unsampled,
+                settings,
+                y,
+                h_un,
+                h_sn,
+                h_meta,
+                gd,
+                ar,
+                raw,
+                class,
+                un,
+                sn,
+                planes: (gs, gp, ss, sp),
+            })
+        });
+}
+
+/// One row of the temporal pass: its hot loop, compiled per instruction-set
+/// level.
+struct Row<'a, 'g> {
+    guide: &'a GuideBuffers<'g>,
+    prev: &'a History,
+    unsampled: &'a [u8],
+    settings: &'a DenoiseSettings,
+    y: usize,
+    h_un: &'a mut [Vec3],
+    h_sn: &'a mut [Vec3],
+    h_meta: &'a mut [Meta],
+    /// The row's blocks of the guide planes and of the accumulated signal
+    /// planes.
+    gd: &'a mut [f32],
+    ar: &'a mut [f32],
+    raw: &'a mut [f32],
+    class: &'a mut [u8],
+    un: &'a mut [Vec3],
+    sn: &'a mut [Vec3],
+    /// Stride and border of the guide planes, then of the signal planes.
+    planes: (usize, usize, usize, usize),
+}
+
+impl Kernel for Row<'_, '_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        let Row {
+            guide,
+            prev,
+            unsampled,
+            settings,
+            y,
+            h_un,
+            h_sn,
+            h_meta,
+            gd,
+            ar,
+            raw,
+            class,
+            un,
+            sn,
+            planes: (gs, gp, ss, sp),
+        } = self;
+        let w = guide.width as usize;
+        let cap = settings.max_history.max(1) as f32;
+        let tw = w.div_ceil(TILE);
+        // Tile classification rides along: this pass reads every pixel
+        // anyway, a separate pass would read them all again.
+        class.fill(tiles::UNIFORM);
+        for x0 in (0..w).step_by(LANES) {
+            let n = LANES.min(w - x0);
+            let mut px = [Pixel::default(); LANES];
+            // This group's guides and accumulated signals, stored to the
+            // planes at once; a pixel without a surface keeps the border
+            // values (every tap gives it weight 0, the filter never
+            // writes it).
+            let mut gv = spatial::GUIDE_BORDER.map(|b| [b; LANES]);
+            let mut sv = spatial::SIGNAL_BORDER.map(|b| [b; LANES]);
+            for (l, p) in px.iter_mut().enumerate().take(n) {
+                let x = x0 + l;
                 let i = y * w + x;
                 let d = guide.depth[i];
                 if !(d > 0.0 && d.is_finite()) {
-                    // No surface: pass through untouched, keep no history. The
-                    // copy in `h_un/h_sn` is what the spatial filter reads.
-                    h_un[x] = un[x];
-                    h_sn[x] = sn[x];
+                    // No surface: pass through untouched, keep no history
+                    // (a finite one: reprojection reads it unmasked).
+                    h_un[x] = Vec3::ZERO;
+                    h_sn[x] = Vec3::ZERO;
                     h_meta[x] = Meta::default();
-                    // No surface: every tap gives it weight 0, and the filter
-                    // never writes it; its planes only need to be finite.
-                    put_guide(x, spatial::GUIDE_BORDER);
-                    put_signal(x, Vec3::ZERO, Vec3::ZERO, 1.0);
                     raw[x] = 1.0;
                     continue;
                 }
-                // A pixel of a tile that drew no samples this frame keeps its
-                // history; lacking one (its surface just changed under the
-                // jitter) it takes its tile's class, exact 1 or exact 0.
+                // A pixel of a tile that drew no samples this frame keeps
+                // its history; lacking one (its surface just changed under
+                // the jitter) it takes its tile's class, exact 1 or exact 0.
                 let skipped = unsampled
                     .get((y / TILE) * tw + x / TILE)
                     .copied()
@@ -120,35 +214,54 @@ pub(crate) fn accumulate(
                     tiles::DARK => (sanitize(guide.u[i]), Vec3::ZERO),
                     _ => (sanitize(guide.u[i]), sanitize(guide.u[i])),
                 };
-                let r = luminance_ratio(s_in, u_in);
                 let lu = luminance(guide.u[i]);
                 let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
                 let share = guide.lobe.get(i).map_or(0.0, |l| l.share);
-                let lu_diffuse = lu * (1.0 - share);
-                let pos = guide.position[i];
-                let normal = guide.normal[i];
-
-                let hist = if settings.temporal && guide.prev_valid[i] {
-                    reproject(
-                        guide,
-                        prev,
-                        x,
-                        y,
-                        d,
-                        pos,
-                        normal,
-                        (lu, lu_diffuse),
-                        settings,
-                    )
-                } else {
-                    None
+                *p = Pixel {
+                    surface: true,
+                    want: settings.temporal && guide.prev_valid[i],
+                    skipped,
+                    depth: d,
+                    u_in,
+                    s_in,
+                    r: luminance_ratio(s_in, u_in),
+                    lu,
+                    lu_diffuse: lu * (1.0 - share),
+                    pos: guide.position[i],
+                    normal: guide.normal[i],
+                    at: guide.prev_pixel[i],
                 };
-                let (acc_u, acc_s, m1, m2, len) = match hist {
+            }
+            let hist = if px.iter().any(|p| p.want) {
+                reproject_lanes(prev, guide.width, guide.height, &px, settings)
+            } else {
+                Reprojected::default()
+            };
+            for (l, p) in px.iter().enumerate().take(n) {
+                if !p.surface {
+                    continue;
+                }
+                let x = x0 + l;
+                let i = y * w + x;
+                let Pixel {
+                    skipped,
+                    depth: d,
+                    u_in,
+                    s_in,
+                    r,
+                    lu,
+                    lu_diffuse,
+                    pos,
+                    normal,
+                    ..
+                } = *p;
+                let h = hist.pixel(l);
+                let (acc_u, acc_s, m1, m2, len) = match h {
                     Some(h) if skipped != 0 => (h.un, h.sn, h.m1, h.m2, h.len),
                     Some(h) => {
                         let len = (h.len + 1.0).min(cap);
-                        // alpha = max(1 / (len_prev + 1), 1 / cap), the same for
-                        // both signals and all channels.
+                        // alpha = max(1 / (len_prev + 1), 1 / cap), the
+                        // same for both signals and all channels.
                         let a = 1.0 / len;
                         (
                             h.un + (u_in - h.un) * a,
@@ -187,80 +300,220 @@ pub(crate) fn accumulate(
                 } else {
                     Vec3::ZERO
                 };
-                put_guide(
-                    x,
-                    [
-                        pos.x, pos.y, pos.z, normal.x, normal.y, normal.z, lu, dir.x, dir.y, dir.z,
-                        lobe_k,
-                    ],
-                );
-                put_signal(x, acc_u, acc_s, luminance_ratio(acc_s, acc_u));
+                let g = [
+                    pos.x, pos.y, pos.z, normal.x, normal.y, normal.z, lu, dir.x, dir.y, dir.z,
+                    lobe_k,
+                ];
+                for (k, v) in g.into_iter().enumerate() {
+                    gv[k][l] = v;
+                }
+                let r_acc = luminance_ratio(acc_s, acc_u);
+                let sg = [acc_u.x, acc_u.y, acc_u.z, acc_s.x, acc_s.y, acc_s.z, r_acc];
+                for (k, v) in sg.into_iter().enumerate() {
+                    sv[k][l] = v;
+                }
                 raw[x] = r;
                 class[x / TILE] &= tiles::pixel_class(acc_u, acc_s);
             }
-        });
-}
-
-/// Bilinear fetch of the previous accumulation at `prev_pixel`, each of the
-/// 2x2 taps validated on its own (a tap across a silhouette is dropped and the
-/// rest renormalised). `None`: disoccluded, or the light changed.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn reproject(
-    guide: &GuideBuffers,
-    prev: &History,
-    x: usize,
-    y: usize,
-    depth: f32,
-    pos: Vec3,
-    normal: Vec3,
-    (lu, lu_diffuse): (f32, f32),
-    s: &DenoiseSettings,
-) -> Option<Reprojected> {
-    let mut acc = Acc::default();
-    for (j, wt) in bilinear_footprint(guide, x, y)?.into_iter().flatten() {
-        let m = &prev.meta[j];
-        if same_surface(m, depth, pos, normal, s) {
-            acc.wsum += wt;
-            acc.un += prev.un[j] * wt;
-            acc.sn += prev.sn[j] * wt;
-            acc.m1 += m.m1 * wt;
-            acc.m2 += m.m2 * wt;
-            acc.len += m.len * wt;
-            acc.lu += m.lu * wt;
-            acc.lu_diffuse += m.lu_diffuse * wt;
+            for (k, v) in gv.iter().enumerate() {
+                let at = k * gs + gp + x0;
+                gd[at..at + n].copy_from_slice(&v[..n]);
+            }
+            for (k, v) in sv.iter().enumerate() {
+                let at = k * ss + sp + x0;
+                ar[at..at + n].copy_from_slice(&v[..n]);
+            }
         }
     }
-    let Acc {
-        wsum,
-        un,
-        sn,
-        m1,
-        m2,
-        len,
-        lu: lu_prev,
-        lu_diffuse: lu_diffuse_prev,
-    } = acc;
+}
+
+/// Bilinear fetch of the previous accumulation at each lane's motion
+/// vector end, each of the 2x2 taps validated on its own (a tap across a
+/// silhouette is dropped and the rest renormalised); no history where
+/// disoccluded or where the light changed. Lane for lane the arithmetic of
+/// [`bilinear_taps`], [`same_surface`] and [`light_changed`]; only the
+/// fetches of the history records are per lane.
+#[inline(always)]
+fn reproject_lanes(
+    prev: &History,
+    width: u32,
+    height: u32,
+    px: &[Pixel; LANES],
+    s: &DenoiseSettings,
+) -> Reprojected {
+    let lane = |f: &dyn Fn(&Pixel) -> f32| V(std::array::from_fn(|l| f(&px[l])));
+    let (ax, ay) = (lane(&|p| p.at.x - 0.5), lane(&|p| p.at.y - 0.5));
+    let depth = lane(&|p| p.depth);
+    let (pos_x, pos_y, pos_z) = (lane(&|p| p.pos.x), lane(&|p| p.pos.y), lane(&|p| p.pos.z));
+    let (nx, ny, nz) = (
+        lane(&|p| p.normal.x),
+        lane(&|p| p.normal.y),
+        lane(&|p| p.normal.z),
+    );
+    // Finite and not far off-screen (no overflow in the casts).
+    let lim = V::splat(1e9);
+    let ok0: [bool; LANES] = std::array::from_fn(|l| {
+        px[l].want && ax.0[l].abs() <= lim.0[l] && ay.0[l].abs() <= lim.0[l]
+    });
+    let ax = M::from_fn(|l| ok0[l]).select(ax, V::splat(0.0));
+    let ay = M::from_fn(|l| ok0[l]).select(ay, V::splat(0.0));
+    let (x0, y0) = (floor_lanes(ax), floor_lanes(ay));
+    let fx = ax - V(x0.map(|v| v as f32));
+    let fy = ay - V(y0.map(|v| v as f32));
+    let one = V::splat(1.0);
+    let taps = [
+        (0, 0, (one - fx) * (one - fy)),
+        (1, 0, fx * (one - fy)),
+        (0, 1, (one - fx) * fy),
+        (1, 1, fx * fy),
+    ];
+    let (w, h) = (width as i64, height as i64);
+    let zero = V::splat(0.0);
+    let mut wsum = zero;
+    let mut un = [zero; 3];
+    let mut sn = [zero; 3];
+    let (mut m1, mut m2, mut len, mut lu_prev, mut lud_prev) = (zero, zero, zero, zero, zero);
+    for (dx, dy, wt) in taps {
+        let mut j = [0usize; LANES];
+        let mut inside = [false; LANES];
+        for l in 0..LANES {
+            let (tx, ty) = (x0[l] as i64 + dx, y0[l] as i64 + dy);
+            inside[l] = ok0[l] && wt.0[l] > 0.0 && tx >= 0 && ty >= 0 && tx < w && ty < h;
+            j[l] = if inside[l] { (ty * w + tx) as usize } else { 0 };
+        }
+        // The records of the taps, per lane.
+        let mut f = [[0.0f32; LANES]; 16];
+        for l in 0..LANES {
+            let m = &prev.meta[j[l]];
+            let (u, sg) = (prev.un[j[l]], prev.sn[j[l]]);
+            let v = [
+                m.depth,
+                m.pos.x,
+                m.pos.y,
+                m.pos.z,
+                m.normal[0] as f32,
+                m.normal[1] as f32,
+                m.len,
+                m.m1,
+                m.m2,
+                m.lu,
+                m.lu_diffuse,
+                u.x,
+                u.y,
+                u.z,
+                sg.x,
+                sg.y,
+            ];
+            for (k, v) in v.into_iter().enumerate() {
+                f[k][l] = v;
+            }
+        }
+        let sz = V(std::array::from_fn(|l| prev.sn[j[l]].z));
+        let [
+            md,
+            mx,
+            my,
+            mz,
+            e0,
+            e1,
+            mlen,
+            mm1,
+            mm2,
+            mlu,
+            mlud,
+            ur,
+            ug,
+            ub,
+            sr,
+            sg,
+        ] = f.map(V);
+        // `same_surface`, lane for lane.
+        let plane = nx * (mx - pos_x) + ny * (my - pos_y) + nz * (mz - pos_z);
+        let a = decode_normal_lanes(e0, e1);
+        let close = normal_close_lanes(a, (nx, ny, nz), s.min_normal_dot);
+        let near_depth = (md - depth).abs().le(depth * s.depth_tolerance);
+        let near_plane = plane.abs().le(depth * s.plane_tolerance);
+        let valid = M::from_fn(|l| inside[l])
+            .and(md.gt(zero))
+            .and(near_depth)
+            .and(near_plane)
+            .and(mlen.gt(zero))
+            .and(close);
+        let wt = valid.select(wt, zero);
+        wsum = wsum + wt;
+        let add = |acc: V, v: V| acc + valid.select(v * wt, zero);
+        un = [add(un[0], ur), add(un[1], ug), add(un[2], ub)];
+        sn = [add(sn[0], sr), add(sn[1], sg), add(sn[2], sz)];
+        m1 = add(m1, mm1);
+        m2 = add(m2, mm2);
+        len = add(len, mlen);
+        lu_prev = add(lu_prev, mlu);
+        lud_prev = add(lud_prev, mlud);
+    }
     // A sliver of valid footprint is too little to trust.
-    if wsum < 1e-3 {
-        return None;
+    let enough = wsum.ge(V::splat(1e-3));
+    let inv = one / enough.select(wsum, one);
+    let mut ok: [bool; LANES] = std::array::from_fn(|l| ok0[l] && wsum.0[l] >= 1e-3);
+    if s.light_test {
+        let now = (lane(&|p| p.lu), lane(&|p| p.lu_diffuse));
+        let changed = light_changed_lanes(now, (lu_prev * inv, lud_prev * inv), s.u_change);
+        for l in 0..LANES {
+            ok[l] &= !changed[l];
+        }
     }
-    let inv = 1.0 / wsum;
-    if s.light_test
-        && light_changed(
-            (lu, lu_diffuse),
-            (lu_prev * inv, lu_diffuse_prev * inv),
-            s.u_change,
-        )
-    {
-        return None;
-    }
-    Some(Reprojected {
-        un: un * inv,
-        sn: sn * inv,
+    Reprojected {
+        ok,
+        un: un.map(|c| c * inv),
+        sn: sn.map(|c| c * inv),
         m1: m1 * inv,
         m2: m2 * inv,
         len: len * inv,
+    }
+}
+
+/// [`floor`] per lane, for values within 1e9.
+#[inline(always)]
+fn floor_lanes(v: V) -> [i32; LANES] {
+    std::array::from_fn(|l| {
+        let t = v.0[l] as i32;
+        if (t as f32) > v.0[l] { t - 1 } else { t }
+    })
+}
+
+/// `decode_normal` per lane, from the two encoded components as `f32`.
+#[inline(always)]
+fn decode_normal_lanes(e0: V, e1: V) -> (V, V, V) {
+    let (px, py) = (e0 * (1.0 / 32767.0), e1 * (1.0 / 32767.0));
+    let z = V::splat(1.0) - px.abs() - py.abs();
+    let wrap = z.lt(V::splat(0.0));
+    let sign = |v: V| v.ge(V::splat(0.0)).select(V::splat(1.0), V::splat(-1.0));
+    let wx = (V::splat(1.0) - py.abs()) * sign(px);
+    let wy = (V::splat(1.0) - px.abs()) * sign(py);
+    (wrap.select(wx, px), wrap.select(wy, py), z)
+}
+
+/// `normal_close` per lane.
+#[inline(always)]
+fn normal_close_lanes(a: (V, V, V), b: (V, V, V), min_dot: f32) -> M {
+    let d = a.0 * b.0 + a.1 * b.1 + a.2 * b.2;
+    let len2 = a.0 * a.0 + a.1 * a.1 + a.2 * a.2;
+    if min_dot >= 0.0 {
+        d.ge(V::splat(0.0))
+            .and((d * d).ge(len2 * (min_dot * min_dot)))
+    } else {
+        d.ge(len2.sqrt() * min_dot)
+    }
+}
+
+/// `light_changed` per lane.
+#[inline(always)]
+fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LANES] {
+    std::array::from_fn(|l| {
+        light_changed(
+            (now.0.0[l], now.1.0[l]),
+            (before.0.0[l], before.1.0[l]),
+            tolerance,
+        )
     })
 }
 
