@@ -176,7 +176,7 @@ pub struct Denoiser {
     ping: spatial::Planes,
     pong: spatial::Planes,
     /// Raw (this frame only) ratio per pixel, for the spatial noise estimate.
-    raw_ratio: Vec<f32>,
+    moments: spatial::Planes,
     /// Class bits per pixel row and tile column (see `tiles`).
     row_class: Vec<u8>,
     /// Noise deviation of the accumulated ratio per pixel.
@@ -224,7 +224,12 @@ impl Denoiser {
             acc: planes(width, height, 0, &spatial::SIGNAL_BORDER),
             ping: planes(width, height, 0, &spatial::SIGNAL_BORDER),
             pong: planes(width, height, 0, &spatial::SIGNAL_BORDER),
-            raw_ratio: vec![0.0; n],
+            moments: spatial::Planes::new(
+                width as usize,
+                height as usize,
+                spatial::LANES,
+                &[0.0; noise::COUNT],
+            ),
             row_class: vec![0; height as usize * (width as usize).div_ceil(TILE)],
             sigma: vec![0.0; n],
             levels: vec![0; n],
@@ -359,7 +364,7 @@ impl Denoiser {
             &mut self.cur,
             &mut self.guides,
             &mut self.acc,
-            &mut self.raw_ratio,
+            &mut self.moments,
             &mut self.row_class,
             un,
             sn,
@@ -379,9 +384,7 @@ impl Denoiser {
                 .tiles
                 .classify(&self.row_class, guide.height as usize, skip);
             stats.levels = noise::estimate(
-                guide,
-                &self.cur,
-                &self.raw_ratio,
+                &self.moments,
                 &self.tiles,
                 &mut self.sigma,
                 &mut self.levels,

@@ -9,76 +9,129 @@
 //! shadowed) means no filtering at all. Each à-trous level roughly halves the
 //! deviation, which gives the level count.
 
-use super::history::History;
+use super::DenoiseSettings;
+use super::spatial::lanes::V;
+use super::spatial::{LANES, Planes};
 use super::tiles::{TILE, Tiles};
-use super::{DenoiseSettings, GuideBuffers};
+use penumbra_isa::{self as isa, Kernel};
 use rayon::prelude::*;
 
 /// History length from which the temporal moments are trusted.
 const TRUST_MOMENTS: f32 = 4.0;
 
+/// The planes the temporal pass writes for the estimate, per surface pixel
+/// (0 in every plane where there is none, so a 3x3 sum of each plane is the
+/// sum over the surface pixels): this frame's raw ratio, its square, the
+/// variance of the accumulated moments, 1, and the history length.
+pub(crate) const RAW: usize = 0;
+pub(crate) const RAW2: usize = 1;
+pub(crate) const VAR_T: usize = 2;
+pub(crate) const SURFACE: usize = 3;
+pub(crate) const LEN: usize = 4;
+pub(crate) const COUNT: usize = 5;
+
+/// Per pixel the noise deviation of the accumulated ratio (`sigma_out`) and
+/// the levels it needs; returns the most levels any pixel needs.
 pub(crate) fn estimate(
-    guide: &GuideBuffers,
-    cur: &History,
-    raw_ratio: &[f32],
+    moments: &Planes,
     tiles: &Tiles,
     sigma_out: &mut [f32],
     levels: &mut [u8],
     s: &DenoiseSettings,
 ) -> u8 {
-    let w = guide.width as usize;
-    let h = guide.height as usize;
-    let target = s.noise_target.max(1e-6);
+    let w = moments.width;
     (sigma_out.par_chunks_mut(w), levels.par_chunks_mut(w))
         .into_par_iter()
         .enumerate()
         .map(|(y, (sg, lv))| {
-            let mut row_max = 0u8;
-            for x in 0..w {
-                lv[x] = 0;
-                sg[x] = 0.0;
-                if cur.meta[y * w + x].depth <= 0.0 || tiles.skipped(x / TILE, y / TILE) {
-                    continue;
-                }
-                let mut n = 0.0f32;
-                let (mut r1, mut r2, mut vt) = (0.0f32, 0.0f32, 0.0f32);
-                for ny in y.saturating_sub(1)..(y + 2).min(h) {
-                    for nx in x.saturating_sub(1)..(x + 2).min(w) {
-                        let j = ny * w + nx;
-                        let m = &cur.meta[j];
-                        if m.depth > 0.0 {
-                            let r = raw_ratio[j];
-                            r1 += r;
-                            r2 += r * r;
-                            vt += (m.m2 - m.m1 * m.m1).max(0.0);
-                            n += 1.0;
-                        }
-                    }
-                }
-                let inv = 1.0 / n; // n >= 1: the pixel itself is a surface
-                let var_t = vt * inv;
-                let len = cur.meta[y * w + x].len.max(1.0);
-                let var_raw = if len >= TRUST_MOMENTS {
-                    var_t
-                } else {
-                    let mean = r1 * inv;
-                    (r2 * inv - mean * mean).max(0.0).max(var_t)
-                };
-                let sigma = (var_raw / len).sqrt();
-                sg[x] = sigma;
-                // Smallest l with sigma / 2^l <= target.
-                let mut need = 0u8;
-                let mut left = sigma;
-                while left > target && need < s.max_levels {
-                    left *= 0.5;
-                    need += 1;
-                }
-                let l = need.min(s.max_levels).max(s.min_levels);
-                lv[x] = l;
-                row_max = row_max.max(l);
-            }
-            row_max
+            isa::run(Row {
+                moments,
+                tiles,
+                s,
+                y,
+                sg,
+                lv,
+            })
         })
         .max()
         .unwrap_or(0)
+}
+
+/// One row of the estimate, a lane group at a time.
+struct Row<'a> {
+    moments: &'a Planes,
+    tiles: &'a Tiles,
+    s: &'a DenoiseSettings,
+    y: usize,
+    sg: &'a mut [f32],
+    lv: &'a mut [u8],
+}
+
+impl Kernel for Row<'_> {
+    type Out = u8;
+    #[inline(always)]
+    fn run(self) -> u8 {
+        let Row {
+            moments: m,
+            tiles,
+            s,
+            y,
+            sg,
+            lv,
+        } = self;
+        let w = m.width;
+        let target = s.noise_target.max(1e-6);
+        let views: [&[f32]; COUNT] = m.views();
+        let block = m.block();
+        let zero = V::splat(0.0);
+        let mut row_max = 0u8;
+        for tx in 0..tiles.columns() {
+            let x0 = tx * LANES;
+            let n = LANES.min(w - x0);
+            if tiles.skipped(tx, y / TILE) {
+                sg[x0..x0 + n].fill(0.0);
+                lv[x0..x0 + n].fill(0);
+                continue;
+            }
+            let c = m.index(x0, y);
+            let (mut r1, mut r2, mut vt, mut cnt) = (zero, zero, zero, zero);
+            for row in [c - block, c, c + block] {
+                for at in [row - 1, row, row + 1] {
+                    r1 = r1 + V::load(views[RAW], at);
+                    r2 = r2 + V::load(views[RAW2], at);
+                    vt = vt + V::load(views[VAR_T], at);
+                    cnt = cnt + V::load(views[SURFACE], at);
+                }
+            }
+            let surface = V::load(views[SURFACE], c);
+            let here = surface.gt(zero);
+            // cnt >= 1 wherever the pixel itself is a surface.
+            let inv = V::splat(1.0) / here.select(cnt, V::splat(1.0));
+            let var_t = vt * inv;
+            let len = V::load(views[LEN], c).max(V::splat(1.0));
+            let mean = r1 * inv;
+            let var_s = (r2 * inv - mean * mean).max(zero).max(var_t);
+            let var_raw = len.ge(V::splat(TRUST_MOMENTS)).select(var_t, var_s);
+            let sigma = here.select((var_raw / len).sqrt(), zero);
+            // Smallest l with sigma / 2^l <= target, at most `max_levels`.
+            let mut need = zero;
+            let mut left = sigma;
+            for _ in 0..s.max_levels {
+                let more = left.gt(V::splat(target));
+                need = need + more.select(V::splat(1.0), zero);
+                left = more.select(left * 0.5, left);
+            }
+            for l in 0..n {
+                let l_need = if surface.0[l] > 0.0 {
+                    (need.0[l] as u8).min(s.max_levels).max(s.min_levels)
+                } else {
+                    0
+                };
+                sg[x0 + l] = sigma.0[l];
+                lv[x0 + l] = l_need;
+                row_max = row_max.max(l_need);
+            }
+        }
+        row_max
+    }
 }

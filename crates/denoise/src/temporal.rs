@@ -6,6 +6,7 @@
 //! only on the history length, never on the signal values.
 
 use super::history::{History, Meta, decode_normal, encode_normal};
+use super::noise;
 use super::spatial::lanes::{M, V};
 use super::spatial::{self, LANES, Planes};
 use super::tiles::{self, TILE};
@@ -86,7 +87,7 @@ pub(crate) fn accumulate(
     cur: &mut History,
     guides: &mut Planes,
     acc: &mut Planes,
-    raw_ratio: &mut [f32],
+    moments: &mut Planes,
     row_class: &mut [u8],
     un: &mut [Vec3],
     sn: &mut [Vec3],
@@ -97,12 +98,13 @@ pub(crate) fn accumulate(
     let tw = w.div_ceil(TILE);
     let (gs, gp) = (guides.stride, guides.pad);
     let (ss, sp) = (acc.stride, acc.pad);
+    let (ms, mp) = (moments.stride, moments.pad);
     (
         cur.un.par_chunks_mut(w),
         cur.sn.par_chunks_mut(w),
         cur.meta.par_chunks_mut(w),
         (guides.par_rows_mut(), acc.par_rows_mut()),
-        raw_ratio.par_chunks_mut(w),
+        moments.par_rows_mut(),
         row_class.par_chunks_mut(tw),
         un.par_chunks_mut(w),
         sn.par_chunks_mut(w),
@@ -126,6 +128,7 @@ pub(crate) fn accumulate(
                 un,
                 sn,
                 planes: (gs, gp, ss, sp),
+                moment_planes: (ms, mp),
             })
         });
 }
@@ -145,12 +148,14 @@ struct Row<'a, 'g> {
     /// planes.
     gd: &'a mut [f32],
     ar: &'a mut [f32],
+    /// The row's block of the noise estimate's planes (`noise`).
     raw: &'a mut [f32],
     class: &'a mut [u8],
     un: &'a mut [Vec3],
     sn: &'a mut [Vec3],
     /// Stride and border of the guide planes, then of the signal planes.
     planes: (usize, usize, usize, usize),
+    moment_planes: (usize, usize),
 }
 
 impl Kernel for Row<'_, '_> {
@@ -173,6 +178,7 @@ impl Kernel for Row<'_, '_> {
             un,
             sn,
             planes: (gs, gp, ss, sp),
+            moment_planes: (ms, mp),
         } = self;
         let w = guide.width as usize;
         let cap = settings.max_history.max(1) as f32;
@@ -189,6 +195,7 @@ impl Kernel for Row<'_, '_> {
             // writes it).
             let mut gv = spatial::GUIDE_BORDER.map(|b| [b; LANES]);
             let mut sv = spatial::SIGNAL_BORDER.map(|b| [b; LANES]);
+            let mut nv = [[0.0f32; LANES]; noise::COUNT];
             for (l, p) in px.iter_mut().enumerate().take(n) {
                 let x = x0 + l;
                 let i = y * w + x;
@@ -199,7 +206,6 @@ impl Kernel for Row<'_, '_> {
                     h_un[x] = Vec3::ZERO;
                     h_sn[x] = Vec3::ZERO;
                     h_meta[x] = Meta::default();
-                    raw[x] = 1.0;
                     continue;
                 }
                 // A pixel of a tile that drew no samples this frame keeps
@@ -312,7 +318,10 @@ impl Kernel for Row<'_, '_> {
                 for (k, v) in sg.into_iter().enumerate() {
                     sv[k][l] = v;
                 }
-                raw[x] = r;
+                let v = [r, r * r, (m2 - m1 * m1).max(0.0), 1.0, len];
+                for (k, v) in v.into_iter().enumerate() {
+                    nv[k][l] = v;
+                }
                 class[x / TILE] &= tiles::pixel_class(acc_u, acc_s);
             }
             for (k, v) in gv.iter().enumerate() {
@@ -322,6 +331,10 @@ impl Kernel for Row<'_, '_> {
             for (k, v) in sv.iter().enumerate() {
                 let at = k * ss + sp + x0;
                 ar[at..at + n].copy_from_slice(&v[..n]);
+            }
+            for (k, v) in nv.iter().enumerate() {
+                let at = k * ms + mp + x0;
+                raw[at..at + n].copy_from_slice(&v[..n]);
             }
         }
     }
