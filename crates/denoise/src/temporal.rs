@@ -380,7 +380,11 @@ fn reproject_lanes(
         (0, 1, (one - fx) * fy),
         (1, 1, fx * fy),
     ];
-    let (w, h) = (width as i64, height as i64);
+    // Within i32: the taps lie within 1e9 + 1 of the frame.
+    let (w, h) = (
+        width.min(i32::MAX as u32) as i32,
+        height.min(i32::MAX as u32) as i32,
+    );
     let zero = V::splat(0.0);
     let mut wsum = zero;
     let mut un = [zero; 3];
@@ -390,9 +394,11 @@ fn reproject_lanes(
         let mut j = [0usize; LANES];
         let mut inside = [false; LANES];
         for l in 0..LANES {
-            let (tx, ty) = (x0[l] as i64 + dx, y0[l] as i64 + dy);
-            inside[l] = ok0[l] && wt.0[l] > 0.0 && tx >= 0 && ty >= 0 && tx < w && ty < h;
-            j[l] = if inside[l] { (ty * w + tx) as usize } else { 0 };
+            let (tx, ty) = (x0[l] + dx, y0[l] + dy);
+            // `&`, not `&&`: no branch per lane.
+            inside[l] = ok0[l] & (wt.0[l] > 0.0) & (tx >= 0) & (ty >= 0) & (tx < w) & (ty < h);
+            let (cx, cy) = if inside[l] { (tx, ty) } else { (0, 0) };
+            j[l] = cy as usize * w as usize + cx as usize;
         }
         // The records of the taps, per lane.
         let mut f = [[0.0f32; LANES]; 16];
