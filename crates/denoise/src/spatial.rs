@@ -128,7 +128,11 @@ impl Planes {
     #[inline(always)]
     pub fn views<const N: usize>(&self) -> [&[f32]; N] {
         let len = self.data.len() - (N - 1) * self.stride;
-        std::array::from_fn(|k| &self.data[k * self.stride..k * self.stride + len])
+        let mut out: [&[f32]; N] = [&[]; N];
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = &self.data[k * self.stride..k * self.stride + len];
+        }
+        out
     }
 
     /// Length of the block of one image row of every plane.
@@ -343,8 +347,9 @@ pub(crate) mod lanes {
     use super::LANES;
     use std::ops::{Add, Div, Mul, Sub};
 
+    /// `[f(0), f(1), ...]`, as a plain loop (which stays inline).
     #[inline(always)]
-    fn each<T: Copy + Default>(f: impl Fn(usize) -> T) -> [T; LANES] {
+    pub fn each<T: Copy + Default>(f: impl Fn(usize) -> T) -> [T; LANES] {
         let mut a = [T::default(); LANES];
         for (l, x) in a.iter_mut().enumerate() {
             *x = f(l);
@@ -502,7 +507,13 @@ impl Kernel for LevelRow<'_, '_> {
             let x0 = tx * LANES;
             let n = LANES.min(w - x0);
             let mut lv = [0u8; LANES];
-            lv[..n].copy_from_slice(&ctx.inp.levels[y * w + x0..y * w + x0 + n]);
+            let levels = &ctx.inp.levels[y * w + x0..y * w + x0 + n];
+            // A whole group as one fixed copy (a variable one is a call).
+            if n == LANES {
+                lv.copy_from_slice(levels);
+            } else {
+                lv[..n].copy_from_slice(levels);
+            }
             let active = lv.iter().any(|&l| l > level);
             // Source values: what a pixel that takes no part in this level
             // passes on.
@@ -513,7 +524,12 @@ impl Kernel for LevelRow<'_, '_> {
             let mut ratio = V::load(&src.data, src.at(signal::RATIO, x0, y));
             if active {
                 let mut sigma = V::default();
-                sigma.0[..n].copy_from_slice(&ctx.inp.sigma[y * w + x0..y * w + x0 + n]);
+                let sg = &ctx.inp.sigma[y * w + x0..y * w + x0 + n];
+                if n == LANES {
+                    sigma.0.copy_from_slice(sg);
+                } else {
+                    sigma.0[..n].copy_from_slice(sg);
+                }
                 let f = ctx.taps(level, src, g, x0, y, sigma);
                 let take = M::from_fn(|l| lv[l] > level);
                 for c in 0..3 {
@@ -668,8 +684,8 @@ impl Ctx<'_> {
         }
         let inv = V::splat(1.0) / wsum;
         Filtered {
-            u: u.map(|c| c * inv),
-            s: s.map(|c| c * inv),
+            u: [u[0] * inv, u[1] * inv, u[2] * inv],
+            s: [s[0] * inv, s[1] * inv, s[2] * inv],
         }
     }
 }

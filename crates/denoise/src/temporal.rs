@@ -7,7 +7,7 @@
 
 use super::history::{History, Meta, decode_normal, encode_normal};
 use super::noise;
-use super::spatial::lanes::{M, V};
+use super::spatial::lanes::{M, V, each};
 use super::spatial::{self, LANES, Planes};
 use super::tiles::{self, TILE};
 use super::{DenoiseSettings, GuideBuffers, luminance, luminance_ratio};
@@ -193,8 +193,14 @@ impl Kernel for Row<'_, '_> {
             // planes at once; a pixel without a surface keeps the border
             // values (every tap gives it weight 0, the filter never
             // writes it).
-            let mut gv = spatial::GUIDE_BORDER.map(|b| [b; LANES]);
-            let mut sv = spatial::SIGNAL_BORDER.map(|b| [b; LANES]);
+            let mut gv = [[0.0f32; LANES]; spatial::guide::COUNT];
+            for (v, &b) in gv.iter_mut().zip(&spatial::GUIDE_BORDER) {
+                *v = [b; LANES];
+            }
+            let mut sv = [[0.0f32; LANES]; spatial::signal::COUNT];
+            for (v, &b) in sv.iter_mut().zip(&spatial::SIGNAL_BORDER) {
+                *v = [b; LANES];
+            }
             let mut nv = [[0.0f32; LANES]; noise::COUNT];
             for (l, p) in px.iter_mut().enumerate().take(n) {
                 let x = x0 + l;
@@ -326,17 +332,28 @@ impl Kernel for Row<'_, '_> {
             }
             for (k, v) in gv.iter().enumerate() {
                 let at = k * gs + gp + x0;
-                gd[at..at + n].copy_from_slice(&v[..n]);
+                put(gd, at, v, n);
             }
             for (k, v) in sv.iter().enumerate() {
                 let at = k * ss + sp + x0;
-                ar[at..at + n].copy_from_slice(&v[..n]);
+                put(ar, at, v, n);
             }
             for (k, v) in nv.iter().enumerate() {
                 let at = k * ms + mp + x0;
-                raw[at..at + n].copy_from_slice(&v[..n]);
+                put(raw, at, v, n);
             }
         }
+    }
+}
+
+/// Stores the first `n` lanes of `v` at `at`: a whole group as one fixed
+/// copy (a copy of variable length is a library call).
+#[inline(always)]
+fn put(dst: &mut [f32], at: usize, v: &[f32; LANES], n: usize) {
+    if n == LANES {
+        dst[at..at + LANES].copy_from_slice(v);
+    } else {
+        dst[at..at + n].copy_from_slice(&v[..n]);
     }
 }
 
@@ -354,25 +371,36 @@ fn reproject_lanes(
     px: &[Pixel; LANES],
     s: &DenoiseSettings,
 ) -> Reprojected {
-    let lane = |f: &dyn Fn(&Pixel) -> f32| V(std::array::from_fn(|l| f(&px[l])));
-    let (ax, ay) = (lane(&|p| p.at.x - 0.5), lane(&|p| p.at.y - 0.5));
-    let depth = lane(&|p| p.depth);
-    let (pos_x, pos_y, pos_z) = (lane(&|p| p.pos.x), lane(&|p| p.pos.y), lane(&|p| p.pos.z));
+    // One field of every lane's pixel.
+    macro_rules! lane {
+        ($p:ident => $e:expr) => {
+            V(each(|l| {
+                let $p = &px[l];
+                $e
+            }))
+        };
+    }
+    let (ax, ay) = (lane!(p => p.at.x - 0.5), lane!(p => p.at.y - 0.5));
+    let depth = lane!(p => p.depth);
+    let (pos_x, pos_y, pos_z) = (
+        lane!(p => p.pos.x),
+        lane!(p => p.pos.y),
+        lane!(p => p.pos.z),
+    );
     let (nx, ny, nz) = (
-        lane(&|p| p.normal.x),
-        lane(&|p| p.normal.y),
-        lane(&|p| p.normal.z),
+        lane!(p => p.normal.x),
+        lane!(p => p.normal.y),
+        lane!(p => p.normal.z),
     );
     // Finite and not far off-screen (no overflow in the casts).
     let lim = V::splat(1e9);
-    let ok0: [bool; LANES] = std::array::from_fn(|l| {
-        px[l].want && ax.0[l].abs() <= lim.0[l] && ay.0[l].abs() <= lim.0[l]
-    });
+    let ok0: [bool; LANES] =
+        each(|l| px[l].want && ax.0[l].abs() <= lim.0[l] && ay.0[l].abs() <= lim.0[l]);
     let ax = M::from_fn(|l| ok0[l]).select(ax, V::splat(0.0));
     let ay = M::from_fn(|l| ok0[l]).select(ay, V::splat(0.0));
     let (x0, y0) = (floor_lanes(ax), floor_lanes(ay));
-    let fx = ax - V(x0.map(|v| v as f32));
-    let fy = ay - V(y0.map(|v| v as f32));
+    let fx = ax - V(each(|l| x0[l] as f32));
+    let fy = ay - V(each(|l| y0[l] as f32));
     let one = V::splat(1.0);
     let taps = [
         (0, 0, (one - fx) * (one - fy)),
@@ -427,7 +455,7 @@ fn reproject_lanes(
                 f[k][l] = v;
             }
         }
-        let sz = V(std::array::from_fn(|l| prev.sn[j[l]].z));
+        let sz = V(each(|l| prev.sn[j[l]].z));
         let [
             md,
             mx,
@@ -445,7 +473,24 @@ fn reproject_lanes(
             ub,
             sr,
             sg,
-        ] = f.map(V);
+        ] = [
+            V(f[0]),
+            V(f[1]),
+            V(f[2]),
+            V(f[3]),
+            V(f[4]),
+            V(f[5]),
+            V(f[6]),
+            V(f[7]),
+            V(f[8]),
+            V(f[9]),
+            V(f[10]),
+            V(f[11]),
+            V(f[12]),
+            V(f[13]),
+            V(f[14]),
+            V(f[15]),
+        ];
         // `same_surface`, lane for lane.
         let plane = nx * (mx - pos_x) + ny * (my - pos_y) + nz * (mz - pos_z);
         let a = decode_normal_lanes(e0, e1);
@@ -472,9 +517,9 @@ fn reproject_lanes(
     // A sliver of valid footprint is too little to trust.
     let enough = wsum.ge(V::splat(1e-3));
     let inv = one / enough.select(wsum, one);
-    let mut ok: [bool; LANES] = std::array::from_fn(|l| ok0[l] && wsum.0[l] >= 1e-3);
+    let mut ok: [bool; LANES] = each(|l| ok0[l] && wsum.0[l] >= 1e-3);
     if s.light_test {
-        let now = (lane(&|p| p.lu), lane(&|p| p.lu_diffuse));
+        let now = (lane!(p => p.lu), lane!(p => p.lu_diffuse));
         let changed = light_changed_lanes(now, (lu_prev * inv, lud_prev * inv), s.u_change);
         for l in 0..LANES {
             ok[l] &= !changed[l];
@@ -482,8 +527,8 @@ fn reproject_lanes(
     }
     Reprojected {
         ok,
-        un: un.map(|c| c * inv),
-        sn: sn.map(|c| c * inv),
+        un: [un[0] * inv, un[1] * inv, un[2] * inv],
+        sn: [sn[0] * inv, sn[1] * inv, sn[2] * inv],
         m1: m1 * inv,
         m2: m2 * inv,
         len: len * inv,
@@ -493,7 +538,7 @@ fn reproject_lanes(
 /// [`floor`] per lane, for values within 1e9.
 #[inline(always)]
 fn floor_lanes(v: V) -> [i32; LANES] {
-    std::array::from_fn(|l| {
+    each(|l| {
         let t = v.0[l] as i32;
         if (t as f32) > v.0[l] { t - 1 } else { t }
     })
@@ -527,7 +572,7 @@ fn normal_close_lanes(a: (V, V, V), b: (V, V, V), min_dot: f32) -> M {
 /// `light_changed` per lane.
 #[inline(always)]
 fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LANES] {
-    std::array::from_fn(|l| {
+    each(|l| {
         light_changed(
             (now.0.0[l], now.1.0[l]),
             (before.0.0[l], before.1.0[l]),
