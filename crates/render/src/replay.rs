@@ -177,7 +177,7 @@ fn draw(
     packet: super::shadow::PacketWidth,
 ) -> Draw {
     let (mut un, mut batch, mut samples) = (Vec3::ZERO, ShadowBatch::default(), Vec::new());
-    super::estimate::draw_samples(
+    super::estimate::draw_pixel_samples(
         world,
         g,
         per_light,

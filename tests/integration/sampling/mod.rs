@@ -6,3 +6,4 @@ mod light_sampler;
 mod mis;
 mod properties;
 mod sequence;
+mod trig;

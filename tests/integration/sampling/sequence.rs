@@ -127,3 +127,41 @@ fn pcg_is_uniform_and_stream_dependent() {
     }
     assert_ne!(Pcg32::new(42, 0).next_u32(), Pcg32::new(42, 1).next_u32());
 }
+
+/// The band pass hashes its pixels' streams in lanes (`StreamBatch`, run
+/// at the active ISA level); the pixel replay hashes one pixel at a time:
+/// both must give the same bits, for runs that are not whole lane groups.
+#[test]
+fn batched_streams_are_the_per_pixel_values() {
+    use penumbra::isa;
+    use penumbra::sampling::{STREAM_LANES, StreamBatch};
+    let mut rng = Pcg32::new(3, 4);
+    for n in [1, 7, STREAM_LANES, STREAM_LANES + 5, 3 * STREAM_LANES] {
+        let pixels: Vec<u32> = (0..n).map(|_| rng.next_u32()).collect();
+        let (index, seed) = (rng.next_u32(), rng.next_u32());
+        let dims = [0, 1, 0x7fff_fff0];
+        let mut o: Vec<Vec<f32>> = vec![vec![0.0; n]; 5];
+        let [a, b, c, x, y] = o.as_mut_slice() else {
+            unreachable!()
+        };
+        isa::run(StreamBatch {
+            pixels: &pixels,
+            sample_index: index,
+            seed,
+            dims_1d: dims,
+            out_1d: [a, b, c],
+            dim_2d: 3,
+            out_2d: [x, y],
+        });
+        for (j, &p) in pixels.iter().enumerate() {
+            for (d, &dim) in dims.iter().enumerate() {
+                assert_eq!(o[d][j].to_bits(), sample_1d(p, index, dim, seed).to_bits());
+            }
+            let v = sample_2d(p, index, 3, seed);
+            assert_eq!(
+                (o[3][j].to_bits(), o[4][j].to_bits()),
+                (v.x.to_bits(), v.y.to_bits())
+            );
+        }
+    }
+}

@@ -9,6 +9,7 @@
 //! Visible GGX Normals with Spherical Caps"): the same distribution, fewer
 //! operations and no special case at normal incidence.
 
+use super::trig;
 use crate::shading::brdf;
 use glam::{Vec2, Vec3};
 use penumbra_scene::color::LUMA;
@@ -48,10 +49,10 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     let d = if o.x == 0.0 && o.y == 0.0 {
         Vec2::ZERO
     } else if o.x.abs() > o.y.abs() {
-        let (s, c) = (PI / 4.0 * (o.y / o.x)).sin_cos();
+        let (s, c) = trig::sin_cos_f32(PI / 4.0 * (o.y / o.x));
         o.x * Vec2::new(c, s)
     } else {
-        let (s, c) = (PI / 2.0 - PI / 4.0 * (o.x / o.y)).sin_cos();
+        let (s, c) = trig::sin_cos_f32(PI / 2.0 - PI / 4.0 * (o.x / o.y));
         o.y * Vec2::new(c, s)
     };
     let z = (1.0 - d.length_squared()).max(0.0).sqrt();
@@ -75,7 +76,7 @@ pub fn vndf_sample(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     let phi = 2.0 * PI * u.x;
     let z = (1.0 - u.y) * (1.0 + v.z) - v.z;
     let sin_theta = (1.0 - z * z).clamp(0.0, 1.0).sqrt();
-    let (sp, cp) = phi.sin_cos();
+    let (sp, cp) = trig::sin_cos_f32(phi);
     let h = Vec3::new(sin_theta * cp, sin_theta * sp, z) + v;
     // Unstretch (the inverse transpose of the stretch, for normals).
     Vec3::new(alpha * h.x, alpha * h.y, h.z.max(0.0)).normalize()

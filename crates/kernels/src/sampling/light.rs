@@ -12,6 +12,7 @@
 
 use super::spherical_rect::{RectFrame, SphericalRect};
 use super::spherical_tri;
+use super::trig;
 use glam::{DVec3, Vec2, Vec3};
 use penumbra_scene::Light;
 
@@ -58,6 +59,10 @@ pub struct PreparedLight {
     /// selection table of area sampling.
     fan_area: [f32; MAX_TRIS],
     fan_area_total: f32,
+    /// (v_i − v0) × (v_i+1 − v0) per fan triangle, f64: the triple product
+    /// of a triangle seen from any p is (v0 − p) · this, so the per-point
+    /// setup takes one dot product where it took two edges and a cross.
+    fan_cross: [DVec3; MAX_TRIS],
     /// Corner (world space) and frame when the light is a true rectangle.
     rect: Option<(Vec3, RectFrame)>,
 }
@@ -101,11 +106,14 @@ impl PreparedLight {
         }
         let mut fan_area = [0.0; MAX_TRIS];
         let mut fan_area_total = 0.0;
+        let mut fan_cross = [DVec3::ZERO; MAX_TRIS];
         for i in 1..n.saturating_sub(1) {
             fan_area[i - 1] = (verts[i] - verts[0])
                 .cross(verts[i + 1] - verts[0])
                 .length();
             fan_area_total += fan_area[i - 1];
+            let v0 = verts[0].as_dvec3();
+            fan_cross[i - 1] = (verts[i].as_dvec3() - v0).cross(verts[i + 1].as_dvec3() - v0);
         }
         let rect = as_rect(light, &verts[..n])
             .and_then(|(corner, ex, ey)| Some((corner, RectFrame::new(ex, ey)?)));
@@ -119,6 +127,7 @@ impl PreparedLight {
             edge_len,
             fan_area,
             fan_area_total,
+            fan_cross,
             rect,
         }
     }
@@ -221,13 +230,24 @@ impl<'a> LightSampler<'a> {
                 rel[i] = (light.verts[i] - p).as_dvec3();
                 len[i] = rel[i].length();
             }
+            // Van Oosterom–Strackee per fan triangle (v0, vi, vi+1), as
+            // `spherical_tri::solid_angle_with_lengths`, with the dot
+            // products a fan shares computed once: v0·vi for every i, and
+            // vi·vi+1 along the rim.
+            let mut d0 = [0.0f64; MAX_VERTS];
+            for i in 1..n {
+                d0[i] = rel[0].dot(rel[i]);
+            }
             let mut tri = [0.0f32; MAX_TRIS];
             let mut omega = 0.0;
             for i in 1..n - 1 {
-                tri[i - 1] = spherical_tri::solid_angle_with_lengths(
-                    [rel[0], rel[i], rel[i + 1]],
-                    [len[0], len[i], len[i + 1]],
-                );
+                let triple = rel[0].dot(light.fan_cross[i - 1]).abs();
+                let den = len[0] * len[i] * len[i + 1]
+                    + d0[i] * len[i + 1]
+                    + d0[i + 1] * len[i]
+                    + rel[i].dot(rel[i + 1]) * len[0];
+                let t = (2.0 * trig::atan2(triple, den)) as f32;
+                tri[i - 1] = if t.is_finite() { t } else { 0.0 };
                 omega += tri[i - 1];
             }
             (Strategy::Fan(tri), omega)

@@ -9,6 +9,7 @@ pub mod mis;
 pub mod sequence;
 pub mod spherical_rect;
 pub mod spherical_tri;
+pub mod trig;
 
 pub use brdf_sample::{
     BrdfSample, brdf_pdf, cosine_hemisphere, onb, sample_brdf, spec_lobe_probability, vndf_pdf,
@@ -19,4 +20,7 @@ pub use light::{
     light_pdf, sample_light, sample_light_area_uniform,
 };
 pub use mis::{balance_heuristic, power_heuristic};
-pub use sequence::{Pcg32, hash_u32, sample_1d, sample_2d};
+pub use sequence::{
+    Pcg32, STREAM_LANES, StreamBatch, hash_u32, sample_1d, sample_1d_lanes, sample_2d,
+    sample_2d_lanes,
+};

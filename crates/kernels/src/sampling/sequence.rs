@@ -12,6 +12,7 @@
 //! (mix the frame number into it, e.g. `hash_u32(frame ^ global_seed)`).
 
 use glam::Vec2;
+use penumbra_isa::Kernel;
 
 /// A strong 32-bit integer hash (the "lowbias32" mixer, bias ~0.17): full
 /// avalanche, so neighbouring pixel indices give unrelated seeds.
@@ -143,6 +144,116 @@ pub fn sample_1d(pixel_index: u32, sample_index: u32, dimension: u32, seed: u32)
     let (s, sx, _) = stream_seeds(pixel_index, dimension ^ 0x8000_0000, seed);
     let i = owen_reversed(sample_index.reverse_bits(), s).reverse_bits();
     to_unit(owen_reversed(i, sx).reverse_bits())
+}
+
+/// Pixels per lane group of the batched streams: a multiple of every
+/// level's vector width, so each level runs whole vectors.
+pub const STREAM_LANES: usize = 16;
+
+/// The streams' values for one sample index over a lane group of pixels:
+/// `sample_1d` of `dimension` for each pixel. The same integer arithmetic
+/// as `sample_1d`, lane by lane, so the same bits at any vector width.
+#[inline(always)]
+pub fn sample_1d_lanes(
+    pixels: &[u32; STREAM_LANES],
+    sample_index: u32,
+    dimension: u32,
+    seed: u32,
+    out: &mut [f32; STREAM_LANES],
+) {
+    let rev_index = sample_index.reverse_bits();
+    for l in 0..STREAM_LANES {
+        let (s, sx, _) = stream_seeds(pixels[l], dimension ^ 0x8000_0000, seed);
+        let i = owen_reversed(rev_index, s).reverse_bits();
+        out[l] = to_unit(owen_reversed(i, sx).reverse_bits());
+    }
+}
+
+/// `sample_2d` of `dimension` for each pixel of a lane group (see
+/// `sample_1d_lanes`). The Sobol table lookups run as a loop of their own
+/// so that the hashing around them stays in vectors.
+#[inline(always)]
+pub fn sample_2d_lanes(
+    pixels: &[u32; STREAM_LANES],
+    sample_index: u32,
+    dimension: u32,
+    seed: u32,
+    out_x: &mut [f32; STREAM_LANES],
+    out_y: &mut [f32; STREAM_LANES],
+) {
+    let rev_index = sample_index.reverse_bits();
+    let mut idx = [0u32; STREAM_LANES];
+    let mut sy = [0u32; STREAM_LANES];
+    for l in 0..STREAM_LANES {
+        let (s, sx, y_seed) = stream_seeds(pixels[l], dimension, seed);
+        let i = owen_reversed(rev_index, s).reverse_bits();
+        idx[l] = i;
+        sy[l] = y_seed;
+        out_x[l] = to_unit(owen_reversed(i, sx).reverse_bits());
+    }
+    let mut sob = [0u32; STREAM_LANES];
+    for l in 0..STREAM_LANES {
+        sob[l] = sobol_dim1_reversed(idx[l]);
+    }
+    for l in 0..STREAM_LANES {
+        out_y[l] = to_unit(owen_reversed(sob[l], sy[l]).reverse_bits());
+    }
+}
+
+/// The stream values one sample index draws at a run of pixels, in lane
+/// groups, as a `Kernel` so each ISA level hashes in its own vectors:
+/// three 1D dimensions and one 2D dimension, each into its own array
+/// (`out_1d[d][j]`, `out_2d[c][j]` for pixel `pixels[j]`). Exactly the
+/// values `sample_1d` and `sample_2d` give, pixel by pixel.
+pub struct StreamBatch<'a> {
+    pub pixels: &'a [u32],
+    pub sample_index: u32,
+    pub seed: u32,
+    pub dims_1d: [u32; 3],
+    pub out_1d: [&'a mut [f32]; 3],
+    pub dim_2d: u32,
+    pub out_2d: [&'a mut [f32]; 2],
+}
+
+impl Kernel for StreamBatch<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        let StreamBatch {
+            pixels,
+            sample_index,
+            seed,
+            dims_1d,
+            out_1d,
+            dim_2d,
+            out_2d,
+        } = self;
+        let [o0, o1, o2] = out_1d;
+        let [ox, oy] = out_2d;
+        let n = pixels.len();
+        assert!(o0.len() >= n && o1.len() >= n && o2.len() >= n);
+        assert!(ox.len() >= n && oy.len() >= n);
+        let mut start = 0;
+        while start < n {
+            let m = (n - start).min(STREAM_LANES);
+            let mut px = [0u32; STREAM_LANES];
+            px[..m].copy_from_slice(&pixels[start..start + m]);
+            let mut v = [0.0f32; STREAM_LANES];
+            for (d, o) in [
+                (dims_1d[0], &mut *o0),
+                (dims_1d[1], &mut *o1),
+                (dims_1d[2], &mut *o2),
+            ] {
+                sample_1d_lanes(&px, sample_index, d, seed, &mut v);
+                o[start..start + m].copy_from_slice(&v[..m]);
+            }
+            let mut w = [0.0f32; STREAM_LANES];
+            sample_2d_lanes(&px, sample_index, dim_2d, seed, &mut v, &mut w);
+            ox[start..start + m].copy_from_slice(&v[..m]);
+            oy[start..start + m].copy_from_slice(&w[..m]);
+            start += m;
+        }
+    }
 }
 
 /// Sub-pixel position of frame `frame`'s camera rays, the same for every

@@ -2,6 +2,7 @@
 //! "An Area-Preserving Parametrization for Spherical Rectangles"). Only for
 //! true rectangles: the construction relies on the edges being orthogonal.
 
+use super::trig;
 use glam::{DVec3, Vec2, Vec3};
 
 /// The rectangle's own frame, independent of the viewpoint: built once per
@@ -105,7 +106,7 @@ impl SphericalRect {
         let den2 = r00 * r11 * r01 + d00_11 * r01 + d00_01 * r11 + d11_01 * r00;
         // Ω/2 = atan2(num, den1) + atan2(num, den2) = arg((den1 + i·num)(den2 + i·num)),
         // which stays below π for any planar rectangle: one atan2 instead of two.
-        let solid_angle = (2.0 * (num * (den1 + den2)).atan2(den1 * den2 - num * num)) as f32;
+        let solid_angle = (2.0 * trig::atan2(num * (den1 + den2), den1 * den2 - num * num)) as f32;
         // Great-circle normals through the edges (Ureña's n0, n2, n3) are
         // (0, z0, −y0)/r0, (0, −z0, y1)/r2, (z0, 0, −x0)/r3; their interior
         // angles γ2, γ3 in closed form, cos and sin both.
@@ -145,7 +146,7 @@ impl SphericalRect {
     /// strata on the rectangle.
     pub fn sample(&self, u: Vec2) -> Vec3 {
         // sin/cos of au = k + u.x·Ω by the addition theorem.
-        let (st, ct) = (u.x * self.solid_angle).sin_cos();
+        let (st, ct) = trig::sin_cos_f32(u.x * self.solid_angle);
         let sin_au = self.sin_k * ct + self.cos_k * st;
         let cos_au = self.cos_k * ct - self.sin_k * st;
         let fu = (cos_au * self.b0 - self.b1) / sin_au;

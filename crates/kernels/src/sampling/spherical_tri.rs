@@ -1,6 +1,7 @@
 //! Spherical triangles: a robust solid angle and uniform solid-angle sampling
 //! (Arvo 1995, "Stratified Sampling of Spherical Triangles").
 
+use super::trig;
 use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -23,7 +24,7 @@ pub fn solid_angle(a: Vec3, b: Vec3, c: Vec3) -> f32 {
 pub(crate) fn solid_angle_with_lengths([a, b, c]: [DVec3; 3], [la, lb, lc]: [f64; 3]) -> f32 {
     let triple = a.dot((b - a).cross(c - a)).abs();
     let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
-    let omega = (2.0 * triple.atan2(den)) as f32;
+    let omega = (2.0 * trig::atan2(triple, den)) as f32;
     if omega.is_finite() { omega } else { 0.0 }
 }
 
@@ -70,7 +71,7 @@ pub fn sample(a: Vec3, b: Vec3, c: Vec3, omega: f32, u: Vec2) -> Vec3 {
 
     // Step 1: the corner c' on arc a–c such that triangle a-b-c' has area u.x·Ω.
     let area = ux * omega as f64;
-    let (sin_area, cos_area) = area.sin_cos();
+    let (sin_area, cos_area) = trig::sin_cos(area);
     let s = sin_area * cos_alpha - cos_area * sin_alpha;
     let t = cos_area * cos_alpha + sin_area * sin_alpha;
     let uu = t - cos_alpha;

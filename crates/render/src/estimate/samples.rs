@@ -6,10 +6,10 @@
 use crate::gbuffer::{GSample, PixelKind};
 use crate::shadow::{ShadowBatch, ShadowRay};
 use crate::world::World;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use penumbra_kernels::sampling::brdf_sample::{brdf_pdf_local, sample_brdf, spec_lobe_probability};
 use penumbra_kernels::sampling::light::{LightSampler, sample_light_area_uniform};
-use penumbra_kernels::sampling::sequence::{sample_1d, sample_2d};
+use penumbra_kernels::sampling::sequence::{StreamBatch, sample_1d, sample_2d};
 use penumbra_kernels::shading::brdf::{ShadingBasis, alpha_from_roughness, eval_local};
 use penumbra_scene::color::LUMA;
 
@@ -161,21 +161,36 @@ impl SampleRecord {
     }
 }
 
-impl SampleSink<'_> {
+/// Where a draw's per-sample records go: the pixel replay keeps them, the
+/// frame's own draws drop them. A type parameter rather than a run-time
+/// test, so the frame's draws carry no record building at all while both
+/// run the one body of arithmetic (the replay explains the frame's values
+/// exactly because they are the same code).
+trait Recorder {
+    fn record(&mut self, r: impl FnOnce() -> SampleRecord);
+}
+
+/// The frame's draws: nothing is recorded.
+struct NoRecord;
+
+impl Recorder for NoRecord {
+    #[inline(always)]
+    fn record(&mut self, _: impl FnOnce() -> SampleRecord) {}
+}
+
+impl Recorder for Vec<SampleRecord> {
     #[inline]
     fn record(&mut self, r: impl FnOnce() -> SampleRecord) {
-        if let Some(t) = self.trace.as_deref_mut() {
-            t.push(r());
-        }
+        self.push(r());
     }
 }
 
 /// Draws `stream.count` samples for one pixel into `sink`: their weights
 /// add to `U_N`, their shadow rays (to be added to `S_N` when unoccluded)
-/// queue in its batch.
-// Out of line: a stage of `make profile` (scripts/profile.py).
-#[inline(never)]
-pub fn draw_samples(
+/// queue in its batch. The frame's bands draw through `draw_samples`,
+/// which gives the same values; this is the one-pixel form (the pixel
+/// replay, the orphans of the quarter rate).
+pub fn draw_pixel_samples(
     world: &World,
     g: &GSample,
     per_light: &[Vec3],
@@ -184,16 +199,268 @@ pub fn draw_samples(
     stream: SampleStream,
     sink: &mut SampleSink,
 ) {
+    let SampleSink {
+        un,
+        batch,
+        slot,
+        trace,
+    } = sink;
+    let out = Out {
+        un,
+        batch,
+        slot: *slot,
+    };
+    let streams = PixelStreams(stream);
+    match trace.as_deref_mut() {
+        Some(t) => draw(
+            world, g, per_light, u_total, estimator, stream, &streams, out, t,
+        ),
+        None => draw(
+            world,
+            g,
+            per_light,
+            u_total,
+            estimator,
+            stream,
+            &streams,
+            out,
+            &mut NoRecord,
+        ),
+    }
+}
+
+/// The random numbers a pixel's samples draw, by sample index `s` (from
+/// 0) within its stream: computed on the spot for one pixel, or read from
+/// a band's batch (`BandStreams`), the same values either way.
+trait Streams {
+    fn light(&self, s: u32) -> f32;
+    fn strategy(&self, s: u32) -> f32;
+    fn lobe(&self, s: u32) -> f32;
+    fn dir(&self, s: u32) -> Vec2;
+}
+
+/// One pixel's streams, hashed when asked.
+struct PixelStreams(SampleStream);
+
+impl Streams for PixelStreams {
+    #[inline(always)]
+    fn light(&self, s: u32) -> f32 {
+        let t = self.0;
+        sample_1d(t.pixel, t.first.wrapping_add(s), DIM_LIGHT, t.seed)
+    }
+    #[inline(always)]
+    fn strategy(&self, s: u32) -> f32 {
+        let t = self.0;
+        sample_1d(t.pixel, t.first.wrapping_add(s), DIM_STRATEGY, t.seed)
+    }
+    #[inline(always)]
+    fn lobe(&self, s: u32) -> f32 {
+        let t = self.0;
+        sample_1d(t.pixel, t.first.wrapping_add(s), DIM_LOBE, t.seed)
+    }
+    #[inline(always)]
+    fn dir(&self, s: u32) -> Vec2 {
+        let t = self.0;
+        sample_2d(t.pixel, t.first.wrapping_add(s), DIM_DIR, t.seed)
+    }
+}
+
+/// Per-thread working memory of `draw_samples`, reused across bands (no
+/// allocation once the largest band has been seen): the frame indices of
+/// the drawn pixels and their streams' values, one array per dimension,
+/// sample-major (`[s * n + j]` for the `j`-th drawn pixel).
+#[derive(Default)]
+pub struct SampleScratch {
+    pixels: Vec<u32>,
+    light: Vec<f32>,
+    strategy: Vec<f32>,
+    lobe: Vec<f32>,
+    dir_x: Vec<f32>,
+    dir_y: Vec<f32>,
+}
+
+/// The `j`-th drawn pixel's streams in a band's batch of `n`.
+struct BandStreams<'a> {
+    scratch: &'a SampleScratch,
+    j: usize,
+    n: usize,
+}
+
+impl BandStreams<'_> {
+    #[inline(always)]
+    fn at(&self, s: u32) -> usize {
+        s as usize * self.n + self.j
+    }
+}
+
+impl Streams for BandStreams<'_> {
+    #[inline(always)]
+    fn light(&self, s: u32) -> f32 {
+        self.scratch.light[self.at(s)]
+    }
+    #[inline(always)]
+    fn strategy(&self, s: u32) -> f32 {
+        self.scratch.strategy[self.at(s)]
+    }
+    #[inline(always)]
+    fn lobe(&self, s: u32) -> f32 {
+        self.scratch.lobe[self.at(s)]
+    }
+    #[inline(always)]
+    fn dir(&self, s: u32) -> Vec2 {
+        let i = self.at(s);
+        Vec2::new(self.scratch.dir_x[i], self.scratch.dir_y[i])
+    }
+}
+
+/// What a band's pixels draw: their G-buffer, `U` per light (`lights` per
+/// pixel) and in all, the estimator, and where the samples lie in each
+/// pixel's sequence (band pixel `k` is frame pixel `base + k`).
+pub struct BandDraw<'a> {
+    pub gbuf: &'a [GSample],
+    pub per_light: &'a [Vec3],
+    pub u: &'a [Vec3],
+    pub estimator: Estimator,
+    pub base: u32,
+    pub first: u32,
+    pub spp: u32,
+    pub seed: u32,
+}
+
+/// Draws the samples of a band's pixels `drawn`, pairs of an index into
+/// the band and the slot `m` its samples add to: weights to `un[m]`,
+/// shadow rays into `batch` tagged `m`. The streams' hashing runs first
+/// over every drawn pixel in lanes (`StreamBatch`), then each pixel's
+/// samples.
+// Out of line: a stage of `make profile` (scripts/profile.py).
+#[inline(never)]
+pub fn draw_samples(
+    world: &World,
+    band: &BandDraw,
+    drawn: &[(usize, usize)],
+    un: &mut [Vec3],
+    batch: &mut ShadowBatch,
+    scratch: &mut SampleScratch,
+) {
+    let (n, spp) = (drawn.len(), band.spp);
+    if n == 0 || spp == 0 || world.lights.is_empty() {
+        return;
+    }
+    scratch.pixels.clear();
+    scratch
+        .pixels
+        .extend(drawn.iter().map(|&(k, _)| band.base.wrapping_add(k as u32)));
+    let len = n * spp as usize;
+    for v in [
+        &mut scratch.light,
+        &mut scratch.strategy,
+        &mut scratch.lobe,
+        &mut scratch.dir_x,
+        &mut scratch.dir_y,
+    ] {
+        v.resize(len, 0.0);
+    }
+    for s in 0..spp {
+        let r = s as usize * n..(s as usize + 1) * n;
+        penumbra_isa::run(StreamBatch {
+            pixels: &scratch.pixels,
+            sample_index: band.first.wrapping_add(s),
+            seed: band.seed,
+            dims_1d: [DIM_LIGHT, DIM_STRATEGY, DIM_LOBE],
+            out_1d: [
+                &mut scratch.light[r.clone()],
+                &mut scratch.strategy[r.clone()],
+                &mut scratch.lobe[r.clone()],
+            ],
+            dim_2d: DIM_DIR,
+            out_2d: [&mut scratch.dir_x[r.clone()], &mut scratch.dir_y[r]],
+        });
+    }
+    let lights = world.lights.len();
+    for (j, &(k, m)) in drawn.iter().enumerate() {
+        let stream = SampleStream {
+            pixel: scratch.pixels[j],
+            first: band.first,
+            count: spp,
+            seed: band.seed,
+        };
+        draw(
+            world,
+            &band.gbuf[k],
+            &band.per_light[k * lights..(k + 1) * lights],
+            band.u[k],
+            band.estimator,
+            stream,
+            &BandStreams { scratch, j, n },
+            Out {
+                un: &mut un[m],
+                batch,
+                slot: m as u32,
+            },
+            &mut NoRecord,
+        );
+    }
+}
+
+/// The sums a pixel's samples feed.
+struct Out<'a> {
+    un: &'a mut Vec3,
+    batch: &'a mut ShadowBatch,
+    slot: u32,
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn draw(
+    world: &World,
+    g: &GSample,
+    per_light: &[Vec3],
+    u_total: Vec3,
+    estimator: Estimator,
+    stream: SampleStream,
+    streams: &impl Streams,
+    out: Out,
+    rec: &mut impl Recorder,
+) {
     let SampleStream {
-        pixel,
-        first,
-        count: spp,
-        seed,
+        first, count: spp, ..
     } = stream;
     if g.kind != PixelKind::Surface || world.lights.is_empty() || spp == 0 {
         return;
     }
     let inv_spp = 1.0 / spp as f32;
+    let origin = shadow_origin(g);
+    if estimator == Estimator::AreaVisibility {
+        let w = u_total * inv_spp;
+        for s in 0..spp {
+            let index = first.wrapping_add(s);
+            let (li, p_choose) = pick_light(per_light, streams.light(s));
+            let light = &world.lights.declared()[li];
+            let dir_u = streams.dir(s);
+            let q = sample_light_area_uniform(light, dir_u);
+            let to = q - g.position;
+            let dist = to.length();
+            let base = || SampleRecord::new(index, li, p_choose, Strategy::Area);
+            if !(dist > 0.0 && dist.is_finite()) {
+                rec.record(|| SampleRecord {
+                    dropped: Some("the light point is the shading point"),
+                    ..base()
+                });
+                continue;
+            }
+            let wi = to / dist;
+            *out.un += w;
+            out.batch
+                .push(ShadowRay::new(origin, wi, dist, out.slot, w));
+            rec.record(|| SampleRecord {
+                wi,
+                dist,
+                weight: w,
+                ..base()
+            });
+        }
+        return;
+    }
     let n = g.ns;
     let wo = g.wo;
     let alpha = alpha_from_roughness(g.roughness);
@@ -204,6 +471,8 @@ pub fn draw_samples(
     // isotropic, so it does not care which frame), instead of two per sample.
     let frame = ShadingBasis::from_normal_view(n, wo);
     let wo_l = frame.to_local(wo);
+    let samplers = world.lights.sampling();
+    let lights = world.lights.declared();
     // The light sampler of the last light chosen: its setup is per (light,
     // point). Kept in place and borrowed: the sampler is large enough that
     // moving it around per sample was a measurable share of this function.
@@ -211,48 +480,25 @@ pub fn draw_samples(
     let mut cached: Option<LightSampler> = None;
     for s in 0..spp {
         let index = first.wrapping_add(s);
-        let (li, p_choose) = pick_light(per_light, sample_1d(pixel, index, DIM_LIGHT, seed));
-        let light = &world.lights.declared()[li];
-        let dir_u = sample_2d(pixel, index, DIM_DIR, seed);
-        if estimator == Estimator::AreaVisibility {
-            let q = sample_light_area_uniform(light, dir_u);
-            let to = q - g.position;
-            let dist = to.length();
-            let base = || SampleRecord::new(index, li, p_choose, Strategy::Area);
-            if !(dist > 0.0 && dist.is_finite()) {
-                sink.record(|| SampleRecord {
-                    dropped: Some("the light point is the shading point"),
-                    ..base()
-                });
-                continue;
-            }
-            let wi = to / dist;
-            let w = u_total * inv_spp;
-            *sink.un += w;
-            sink.batch
-                .push(ShadowRay::new(shadow_origin(g), wi, dist, sink.slot, w));
-            sink.record(|| SampleRecord {
-                wi,
-                dist,
-                weight: w,
-                ..base()
-            });
-            continue;
-        }
+        let (li, p_choose) = pick_light(per_light, streams.light(s));
+        let light = &lights[li];
         if cached_light != li {
             cached_light = li;
-            cached = LightSampler::new(&world.lights.sampling()[li], g.position);
+            cached = LightSampler::new(&samplers[li], g.position);
         }
         let Some(sampler) = cached.as_ref() else {
-            sink.record(|| SampleRecord {
+            rec.record(|| SampleRecord {
                 dropped: Some("the light is behind the point or degenerate"),
                 ..SampleRecord::new(index, li, p_choose, Strategy::Light)
             });
             continue;
         };
+        let dir_u = streams.dir(s);
         let p_light_strategy =
             light_strategy_probability(p_spec, lobe_solid_angle, sampler.solid_angle());
-        let use_light = sample_1d(pixel, index, DIM_STRATEGY, seed) < p_light_strategy;
+        // At probability 1 every u in [0, 1) picks the light: the strategy's
+        // stream is only drawn where it can decide anything.
+        let use_light = p_light_strategy >= 1.0 || streams.strategy(s) < p_light_strategy;
         let strategy = if use_light {
             Strategy::Light
         } else {
@@ -265,12 +511,12 @@ pub fn draw_samples(
         let picked = if use_light {
             sampler.sample(dir_u).map(|ls| (ls.wi, ls.dist, ls.pdf))
         } else {
-            let lobe = sample_1d(pixel, index, DIM_LOBE, seed);
+            let lobe = streams.lobe(s);
             sample_brdf(n, wo, alpha, p_spec, lobe, dir_u)
                 .and_then(|bs| sampler.pdf(bs.wi).map(|(pdf, d)| (bs.wi, d, pdf)))
         };
         let Some((wi, dist, pdf_light)) = picked else {
-            sink.record(|| SampleRecord {
+            rec.record(|| SampleRecord {
                 dropped: Some(if use_light {
                     "no point of the light was sampled"
                 } else {
@@ -282,7 +528,7 @@ pub fn draw_samples(
         };
         let cos = n.dot(wi);
         if cos <= 0.0 {
-            sink.record(|| SampleRecord {
+            rec.record(|| SampleRecord {
                 wi,
                 dist,
                 pdf_light,
@@ -311,7 +557,7 @@ pub fn draw_samples(
             ..base()
         };
         if !(pdf > 0.0 && pdf.is_finite()) {
-            sink.record(|| SampleRecord {
+            rec.record(|| SampleRecord {
                 dropped: Some("zero or non-finite pdf"),
                 weight: Vec3::ZERO,
                 ..full()
@@ -319,16 +565,16 @@ pub fn draw_samples(
             continue;
         }
         if !w.is_finite() || w.max_element() <= 0.0 {
-            sink.record(|| SampleRecord {
+            rec.record(|| SampleRecord {
                 dropped: Some("zero or non-finite weight"),
                 ..full()
             });
             continue;
         }
-        *sink.un += w;
-        sink.batch
-            .push(ShadowRay::new(shadow_origin(g), wi, dist, sink.slot, w));
-        sink.record(full);
+        *out.un += w;
+        out.batch
+            .push(ShadowRay::new(origin, wi, dist, out.slot, w));
+        rec.record(full);
     }
 }
 

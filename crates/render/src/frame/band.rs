@@ -3,7 +3,9 @@
 //! between the steps that read them.
 
 use super::clock::PhaseClock;
-use crate::estimate::{Estimator, SampleSink, SampleStream, analytic_u_band, draw_samples};
+use crate::estimate::{
+    BandDraw, Estimator, SampleScratch, SampleStream, analytic_u_band, draw_samples,
+};
 use crate::gbuffer::GSample;
 use crate::guides::GuideMut;
 use crate::plan::FramePlan;
@@ -125,25 +127,26 @@ impl<'a, 'd> BandJob<'a, 'd> {
             return since;
         };
         let world = self.world;
-        let lights = world.lights.len();
         scratch.batch.clear();
-        let width = self.cam.width;
-        for (k, m) in pixels {
-            draw_samples(
-                world,
-                &gbuf[k],
-                &scratch.per_light[k * lights..(k + 1) * lights],
-                u[k],
-                est,
-                self.stream(y0 * width + k as u32),
-                &mut SampleSink {
-                    un: &mut un[m],
-                    batch: &mut scratch.batch,
-                    slot: m as u32,
-                    trace: None,
-                },
-            );
-        }
+        scratch.drawn.clear();
+        scratch.drawn.extend(pixels);
+        draw_samples(
+            world,
+            &BandDraw {
+                gbuf,
+                per_light: &scratch.per_light,
+                u,
+                estimator: est,
+                base: y0 * self.cam.width,
+                first: self.first_sample,
+                spp: self.spp,
+                seed: self.seed,
+            },
+            &scratch.drawn,
+            un,
+            &mut scratch.batch,
+            &mut scratch.samples,
+        );
         scratch
             .batch
             .trace(&world.rt, self.packet, |r| sn[r.slot as usize] += r.weight);
@@ -177,6 +180,10 @@ pub(super) struct BandScratch {
     /// Share of the specular lobe in each pixel's `U` (luminance).
     pub(super) spec_share: Vec<f32>,
     pub(super) batch: ShadowBatch,
+    /// The pixels a band draws samples at, (band index, slot) pairs.
+    pub(super) drawn: Vec<(usize, usize)>,
+    /// `draw_samples`' streams.
+    pub(super) samples: SampleScratch,
     /// Band pixels sampled this frame (reduced rate).
     pub(super) sampled: Vec<usize>,
 }

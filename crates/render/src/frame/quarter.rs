@@ -5,7 +5,7 @@
 use super::Frame;
 use super::band::{BAND_ROWS, BandJob, BandMut, BandScratch};
 use super::clock::PhaseClock;
-use crate::estimate::{SampleSink, analytic_u_band, draw_samples};
+use crate::estimate::{SampleSink, analytic_u_band, draw_pixel_samples};
 use crate::gbuffer::GSample;
 use crate::guides::GuideMut;
 use crate::plan::FramePlan;
@@ -62,7 +62,7 @@ pub(super) fn orphan_samples(
     let mut out: Vec<(u32, Vec3, Vec3)> = Vec::with_capacity(chunk.len());
     for (m, (&k, g)) in chunk.iter().zip(&points).enumerate() {
         let mut un = Vec3::ZERO;
-        draw_samples(
+        draw_pixel_samples(
             world,
             g,
             &per_light[m * lights..(m + 1) * lights],
