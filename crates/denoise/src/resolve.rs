@@ -229,17 +229,17 @@ impl Resolve {
         };
         let cur = &mut self.cur;
         (
-            cur.factor.par_chunks_mut(w),
-            cur.color.par_chunks_mut(w),
-            cur.record.par_chunks_mut(w),
-            cur.mixed.par_chunks_mut(w),
+            cur.factor.par_chunks_mut(w * BAND),
+            cur.color.par_chunks_mut(w * BAND),
+            cur.record.par_chunks_mut(w * BAND),
+            cur.mixed.par_chunks_mut(w * BAND),
         )
             .into_par_iter()
             .enumerate()
-            .for_each(|(y, (factor, color, record, mixed))| {
+            .for_each(|(band, (factor, color, record, mixed))| {
                 isa::run(Row {
                     ctx: &ctx,
-                    y,
+                    y0: band * BAND,
                     out: (factor, color, record, mixed),
                 })
             });
@@ -292,10 +292,13 @@ const CHUNK: usize = 64;
 
 const ZERO: [f32; CHUNK] = [0.0; CHUNK];
 
-/// One row of the resolve.
+/// Rows a parallel job resolves (sharing one scratch).
+const BAND: usize = 4;
+
+/// Rows `y0 ..` of the resolve (`out` holds whole rows).
 struct Row<'a, 'b> {
     ctx: &'b Context<'a>,
-    y: usize,
+    y0: usize,
     out: (
         &'b mut [Vec3],
         &'b mut [Vec3],
@@ -454,65 +457,71 @@ impl Kernel for Row<'_, '_> {
     fn run(self) {
         let Row {
             ctx,
-            y,
-            out: (out_f, out_c, out_rec, out_mixed),
+            y0,
+            out: (band_f, band_c, band_rec, band_mixed),
         } = self;
         let (w, h) = (ctx.w, ctx.h);
-        let row = y * w;
-        // On the stack, one a row: LLVM keeps its arrays apart from every
+        // On the stack, one a band: LLVM keeps its arrays apart from every
         // frame buffer, which a borrowed scratch would not tell it.
         let mut scratch = Scratch::new();
         let sc = &mut scratch;
-        for x0 in (0..w).step_by(CHUNK) {
-            let n = CHUNK.min(w - x0);
-            here(ctx.guide, row + x0, n, &mut sc.here);
-            match ctx.motion {
-                CameraMotion::Still => still_history(ctx, row + x0, sc),
-                CameraMotion::Moved => reprojected(ctx, row + x0, sc),
-            }
-            blend_weights(
-                &sc.hist,
-                (ctx.cap, ctx.clamp),
-                &mut sc.len,
-                &mut sc.blend,
-                &mut sc.clamped,
-            );
-            let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
-            for (ch, plane) in ctx.now.iter().enumerate() {
-                if ctx.clamp {
-                    bounds(
-                        plane,
-                        w,
-                        (ya, y, yb),
-                        (x0, n),
-                        (&mut sc.cmin, &mut sc.cmax),
-                        (&mut sc.lo, &mut sc.hi),
+        let rows = band_f.len() / w;
+        for r in 0..rows {
+            let (y, span) = (y0 + r, r * w..(r + 1) * w);
+            let row = y * w;
+            let (out_f, out_c) = (&mut band_f[span.clone()], &mut band_c[span.clone()]);
+            let (out_rec, out_mixed) = (&mut band_rec[span.clone()], &mut band_mixed[span]);
+            for x0 in (0..w).step_by(CHUNK) {
+                let n = CHUNK.min(w - x0);
+                here(ctx.guide, row + x0, n, &mut sc.here);
+                match ctx.motion {
+                    CameraMotion::Still => still_history(ctx, row + x0, sc),
+                    CameraMotion::Moved => reprojected(ctx, row + x0, sc),
+                }
+                blend_weights(
+                    &sc.hist,
+                    (ctx.cap, ctx.clamp),
+                    &mut sc.len,
+                    &mut sc.blend,
+                    &mut sc.clamped,
+                );
+                let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
+                for (ch, plane) in ctx.now.iter().enumerate() {
+                    if ctx.clamp {
+                        bounds(
+                            plane,
+                            w,
+                            (ya, y, yb),
+                            (x0, n),
+                            (&mut sc.cmin, &mut sc.cmax),
+                            (&mut sc.lo, &mut sc.hi),
+                        );
+                    }
+                    clamp_blend(
+                        &sc.hist.sig[ch],
+                        &plane[row + x0..row + x0 + n],
+                        (&sc.lo, &sc.hi, &sc.clamped),
+                        &sc.blend,
+                        &mut sc.res[ch],
                     );
                 }
-                clamp_blend(
-                    &sc.hist.sig[ch],
-                    &plane[row + x0..row + x0 + n],
-                    (&sc.lo, &sc.hi, &sc.clamped),
-                    &sc.blend,
-                    &mut sc.res[ch],
-                );
-            }
-            octahedral_lanes(&sc.here.normal, &mut sc.oct, &mut sc.oct_len2);
-            let (p, res) = (&sc.here, &sc.res);
-            for k in 0..n {
-                let x = x0 + k;
-                out_f[x] = Vec3::new(res[0][k], res[1][k], res[2][k]);
-                out_c[x] = Vec3::new(res[3][k], res[4][k], res[5][k]);
-                out_rec[x] = Record {
-                    pos: Vec3::new(p.pos[0][k], p.pos[1][k], p.pos[2][k]),
-                    normal: Vec3::new(sc.oct[0][k], sc.oct[1][k], sc.oct[2][k]),
-                    normal_len2: sc.oct_len2[k],
-                    depth: p.depth[k],
-                    lu: p.lu[k],
-                    lu_diffuse: p.lu_diffuse[k],
-                    len: sc.len[k],
-                };
-                out_mixed[x] = sc.hist.mixed[k];
+                octahedral_lanes(&sc.here.normal, &mut sc.oct, &mut sc.oct_len2);
+                let (p, res) = (&sc.here, &sc.res);
+                for k in 0..n {
+                    let x = x0 + k;
+                    out_f[x] = Vec3::new(res[0][k], res[1][k], res[2][k]);
+                    out_c[x] = Vec3::new(res[3][k], res[4][k], res[5][k]);
+                    out_rec[x] = Record {
+                        pos: Vec3::new(p.pos[0][k], p.pos[1][k], p.pos[2][k]),
+                        normal: Vec3::new(sc.oct[0][k], sc.oct[1][k], sc.oct[2][k]),
+                        normal_len2: sc.oct_len2[k],
+                        depth: p.depth[k],
+                        lu: p.lu[k],
+                        lu_diffuse: p.lu_diffuse[k],
+                        len: sc.len[k],
+                    };
+                    out_mixed[x] = sc.hist.mixed[k];
+                }
             }
         }
     }
