@@ -898,6 +898,18 @@ fn light_changed(now: (f32, f32), before: (f32, f32), tolerance: f32) -> bool {
     }
 }
 
+/// Truncation toward zero of |v| < 2^22, exact, as +0 where an integer
+/// would be 0: adding and removing 1.5 * 2^23 rounds |v| to an integer,
+/// one less where that rounded up.
+#[inline(always)]
+fn trunc(v: f32) -> f32 {
+    const ROUND: f32 = 12_582_912.0;
+    let a = v.abs();
+    let r = (a + ROUND) - ROUND;
+    let r = if r > a { r - 1.0 } else { r };
+    r.copysign(v) + 0.0
+}
+
 /// floor as an integer for |v| <= 1e9, without a libm call (baseline
 /// x86-64 has no roundss).
 #[inline(always)]
@@ -967,10 +979,11 @@ fn octahedral(n: Vec3) -> Vec3 {
     let (px, py) = (n.x / l1, n.y / l1);
     let (wx, wy) = ((1.0 - py.abs()) * sign(px), (1.0 - px.abs()) * sign(py));
     let (px, py) = if n.z < 0.0 { (wx, wy) } else { (px, py) };
-    // Round half away from zero; in range, so the i32 cast saturates nowhere.
-    let q = |v: f32| (v * 32767.0 + 0.5f32.copysign(v)) as i32;
-    let (ex, ey) = if ok { (q(px), q(py)) } else { (0, 0) };
-    let (px, py) = (ex as f32 * (1.0 / 32767.0), ey as f32 * (1.0 / 32767.0));
+    // Round half away from zero to the 16-bit code, kept as a float: the
+    // value an integer round trip gives, without the conversions.
+    let q = |v: f32| trunc(v * 32767.0 + 0.5f32.copysign(v));
+    let (ex, ey) = if ok { (q(px), q(py)) } else { (0.0, 0.0) };
+    let (px, py) = (ex * (1.0 / 32767.0), ey * (1.0 / 32767.0));
     let z = 1.0 - px.abs() - py.abs();
     let (wx, wy) = ((1.0 - py.abs()) * sign(px), (1.0 - px.abs()) * sign(py));
     let (px, py) = if z < 0.0 { (wx, wy) } else { (px, py) };
