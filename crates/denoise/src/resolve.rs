@@ -507,8 +507,7 @@ impl Kernel for Row<'_, '_> {
                 }
                 octahedral_lanes(&sc.here.normal, &mut sc.oct, &mut sc.oct_len2);
                 let (p, res) = (&sc.here, &sc.res);
-                for k in 0..n {
-                    let x = x0 + k;
+                for (k, x) in (x0..x0 + n).enumerate() {
                     out_f[x] = Vec3::new(res[0][k], res[1][k], res[2][k]);
                     out_c[x] = Vec3::new(res[3][k], res[4][k], res[5][k]);
                     out_rec[x] = Record {
@@ -589,8 +588,8 @@ fn here(guide: &GuideBuffers, i0: usize, n: usize, p: &mut Here) {
     let (pos, normal) = (&guide.position[i0..i0 + n], &guide.normal[i0..i0 + n]);
     match guide.lobe.get(i0..i0 + n) {
         Some(lobe) => {
-            for k in 0..n {
-                p.share[k] = lobe[k].share;
+            for (s, l) in p.share.iter_mut().zip(lobe) {
+                *s = l.share;
             }
         }
         None => p.share[..n].fill(0.0),
@@ -633,8 +632,8 @@ impl Tap {
             &prev.color[..=last],
             &prev.mixed[..=last],
         );
-        for k in 0..CHUNK {
-            let i = (j[k] as usize).min(last);
+        for (k, &j) in j.iter().enumerate() {
+            let i = (j as usize).min(last);
             let m = &record[i];
             [t.pos[0][k], t.pos[1][k], t.pos[2][k]] = m.pos.to_array();
             [t.normal[0][k], t.normal[1][k], t.normal[2][k]] = m.normal.to_array();

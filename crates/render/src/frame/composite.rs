@@ -254,7 +254,8 @@ impl Kernel for Refactor<'_> {
                     // Surfaces (depth > 0 in the guides) carry a ratio;
                     // lights and misses are their emission alone.
                     for k in 0..m {
-                        keep[k] = !(depth[i0 + k] > 0.0);
+                        let surface = depth[i0 + k] > 0.0;
+                        keep[k] = !surface;
                     }
                     for c in 0..3 {
                         for k in 0..LANES {
