@@ -3,8 +3,9 @@
 //! stages never touch meshes or textures.
 
 use super::world::{GeomRef, World};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use penumbra_scene::CameraFrame;
+use penumbra_scene::Texture;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PixelKind {
@@ -124,15 +125,15 @@ pub fn resolve_hit(
             let mat = &world.scene.materials[mesh.material as usize];
             let mut diffuse = mat.diffuse;
             if let Some(map) = &mat.diffuse_map {
-                let texel = map.sample(uv);
+                let texel = bilinear(map, uv);
                 diffuse *= Vec3::new(texel[0], texel[1], texel[2]);
             }
             let roughness = match &mat.roughness_map {
-                Some(map) => map.sample(uv)[0].clamp(0.0, 1.0),
+                Some(map) => bilinear(map, uv)[0].clamp(0.0, 1.0),
                 None => mat.roughness,
             };
             if let (Some(map), Some((d1, d2))) = (&mat.normal_map, duv) {
-                let texel = map.sample(uv);
+                let texel = bilinear(map, uv);
                 let local = Vec3::new(texel[0], texel[1], texel[2]) * 2.0 - Vec3::ONE;
                 ns = apply_normal_map(ns, e1, e2, d1, d2, local);
             }
@@ -183,5 +184,58 @@ fn set_motion(s: &mut GSample, prev: &CameraFrame) {
     if let Some((x, y)) = prev.project(s.position) {
         s.prev_pixel = Vec2::new(x, y);
         s.prev_valid = true;
+    }
+}
+
+/// `Texture::sample` (bilinear, repeating, texel centres at +0.5, v from
+/// the bottom), value for value, with the four channels blended at once
+/// and the wrap reduced to the two cases its coordinates reach: the
+/// fractional part keeps them in -1 ..= width, so only -1 and width wrap.
+#[inline]
+fn bilinear(tex: &Texture, uv: Vec2) -> [f32; 4] {
+    let (w, h) = (tex.width as i64, tex.height as i64);
+    if w == 0 || h == 0 || !uv.is_finite() {
+        return [0.0; 4];
+    }
+    let s = uv.x - floor(uv.x);
+    let t = uv.y - floor(uv.y);
+    let x = s * tex.width as f32 - 0.5;
+    let y = (1.0 - t) * tex.height as f32 - 0.5;
+    let (x0, y0) = (floor(x), floor(y));
+    let (fx, fy) = (x - x0, y - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let wrap = |i: i64, n: i64| {
+        if i < 0 {
+            n - 1
+        } else if i >= n {
+            0
+        } else {
+            i
+        }
+    };
+    let (xa, xb) = (wrap(x0, w), wrap(x0 + 1, w));
+    let (ya, yb) = (wrap(y0, h) * w, wrap(y0 + 1, h) * w);
+    let texel = |i: i64| Vec4::from_array(tex.texels.get(i as usize).copied().unwrap_or([0.0; 4]));
+    let (a, b) = (texel(ya + xa), texel(ya + xb));
+    let (c, d) = (texel(yb + xa), texel(yb + xb));
+    let top = a + (b - a) * fx;
+    let bottom = c + (d - c) * fx;
+    (top + (bottom - top) * fy).to_array()
+}
+
+/// The texture's floor: exact, without a libm call or a float-to-integer
+/// conversion below 2^22 (adding and removing 1.5 * 2^23 rounds to an
+/// integer), nor a libm call below 2^31.
+#[inline]
+fn floor(x: f32) -> f32 {
+    const ROUND: f32 = 12_582_912.0;
+    if x.abs() < 4_194_304.0 {
+        let t = (x + ROUND) - ROUND;
+        if t > x { t - 1.0 } else { t }
+    } else if x.abs() < 2_147_483_648.0 {
+        let t = x as i32 as f32;
+        if t > x { t - 1.0 } else { t }
+    } else {
+        x.floor()
     }
 }
