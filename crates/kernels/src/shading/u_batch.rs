@@ -32,9 +32,11 @@
 //! Which lanes stay here. A lane goes to the scalar path
 //! (`unshadowed_lobes_prepared`, whose answer it then has exactly) when it
 //! lies (nearly) in the light's plane, or when the rounding bound of its
-//! contour sums exceeds `REL_TOL` of its `U` (edge terms are computed from a
-//! vertex and the light's edge vector, `a x b = a x (b - a)`, so each keeps
-//! its own precision; each lane bounds the cancellation between them).
+//! contour sums exceeds `REL_TOL` of its pixel's whole `U` (this light's
+//! and what the lights shaded before it give the pixel, `set_others`; edge
+//! terms are computed from a vertex and the light's edge vector,
+//! `a x b = a x (b - a)`, so each keeps its own precision; each lane
+//! bounds the cancellation between them).
 //! Lanes unlit or entirely under the horizon get exactly 0, as in the
 //! scalar path. `tests/u_batch.rs` checks the result against the scalar
 //! path.
@@ -65,8 +67,9 @@ use penumbra_scene::color::luminance;
 
 pub use super::lanes::LANES;
 
-/// Relative error of a lane's lobes (against the `f64` path) that the fast
-/// path accepts; above it the lane goes to the scalar path.
+/// Relative error of a lane's lobes (against the `f64` path, as a share of
+/// its pixel's whole `U`) that the fast path accepts; above it the lane
+/// goes to the scalar path.
 pub const REL_TOL: f32 = 2e-4;
 /// Rounding of one edge term, in ulps of its magnitude bound (rotation,
 /// LTC map, cross and dot products).
@@ -1123,15 +1126,25 @@ fn shade<const N: usize>(
         }
     }
     // The Lambert lobe to `REL_TOL` of itself (the form factor keeps its
-    // accuracy), the whole of U to `REL_TOL` in every channel.
+    // accuracy), this light's U to `REL_TOL` of the pixel's whole U (what
+    // the lights shaded before it give the pixel included) in every
+    // channel: a lobe tiny against the pixel needs no precision of its own.
     let tol = Wide::splat(REL_TOL);
     let mut doubt = err_l.gt(tol * ff);
     let rad = light.radiance.to_array();
     for c in 0..3 {
         let d = b.kd[c] * ff;
         let total = d + spec[c];
+        // The other lights' luminance in this light's units for channel
+        // `c` (a channel this light does not emit in has nothing to doubt).
+        let scale = if rad[c] > 0.0 {
+            1.0 / BatchFloat::from(rad[c])
+        } else {
+            0.0
+        };
+        let whole = b.others.mul_add(Wide::splat(scale), total);
         doubt = doubt
-            .or(b.kd[c].mul_add(err_l, spec_err[c]).gt(tol * total))
+            .or(b.kd[c].mul_add(err_l, spec_err[c]).gt(tol * whole))
             .or(total.finite().invert());
         let r = Wide::splat(rad[c]);
         out.diffuse[c] = fast.select((d * r).max(Wide::ZERO), Wide::ZERO).to_f32();
