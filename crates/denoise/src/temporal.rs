@@ -581,27 +581,11 @@ fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LA
     })
 }
 
-/// The 2x2 bilinear footprint, in the previous frame, of the end of pixel
-/// (x, y)'s motion vector: each tap's (index, weight), in a fixed order,
-/// `None` for a tap off-screen or of zero weight (so a whole-pixel shift
-/// reads one tap). `None` overall when the end is not finite or far
-/// off-screen (no history, and no overflow in the casts). Shared by the
-/// denoiser's history and the colour resolve.
-#[inline]
-pub(super) fn bilinear_footprint(
-    guide: &GuideBuffers,
-    x: usize,
-    y: usize,
-) -> Option<[Option<(usize, f32)>; 4]> {
-    bilinear_taps(
-        guide.prev_pixel[y * guide.width as usize + x],
-        guide.width,
-        guide.height,
-    )
-}
-
 /// The four bilinear taps of continuous pixel position `at` (pixel centres
-/// at +0.5) on a `width` x `height` grid, as in [`bilinear_footprint`].
+/// at +0.5) on a `width` x `height` grid: each tap's (index, weight), in a
+/// fixed order, `None` for a tap off-screen or of zero weight (so a
+/// whole-pixel shift reads one tap). `None` overall when `at` is not finite
+/// or far off-screen (no history, and no overflow in the casts).
 #[inline]
 pub(super) fn bilinear_taps(
     at: Vec2,
