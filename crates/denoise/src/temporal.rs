@@ -581,6 +581,9 @@ fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LA
 /// reads one tap). `None` overall when the end is not finite or far
 /// off-screen (no history, and no overflow in the casts). Shared by the
 /// denoiser's history and the colour resolve.
+// Part of the reprojection interface offered to the resolve and the
+// upscaler, whether or not they call it.
+#[allow(dead_code)]
 #[inline]
 pub(super) fn bilinear_footprint(
     guide: &GuideBuffers,
