@@ -2,7 +2,7 @@
 //! next frame needs to validate a reprojection tap.
 //!
 //! At 1280x720 the denoiser is bound by memory traffic, not arithmetic, so
-//! the record is kept small (40 bytes): the normal is octahedron-encoded.
+//! the record is kept small (64 bytes with both signals): the normal is octahedron-encoded.
 
 use glam::{Vec2, Vec3};
 
@@ -27,26 +27,32 @@ pub(crate) struct Meta {
     pub len: f32,
 }
 
-/// Signals are kept apart from the metadata so the spatial filter can read
-/// them as plain slices in its first level.
+/// One pixel's history: the metadata and both accumulated signals in one
+/// cache line, so a reprojection tap is one bounds test and one line.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+pub(crate) struct Record {
+    pub meta: Meta,
+    pub un: Vec3,
+    pub sn: Vec3,
+}
+
+const _: () = assert!(std::mem::size_of::<Record>() == 64);
+
 pub(crate) struct History {
-    pub un: Vec<Vec3>,
-    pub sn: Vec<Vec3>,
-    pub meta: Vec<Meta>,
+    pub rec: Vec<Record>,
 }
 
 impl History {
     pub fn new(n: usize) -> History {
         History {
-            un: vec![Vec3::ZERO; n],
-            sn: vec![Vec3::ZERO; n],
-            meta: vec![Meta::default(); n],
+            rec: vec![Record::default(); n],
         }
     }
 
     /// Forget everything: every tap of the next reprojection fails its depth test.
     pub fn clear(&mut self) {
-        self.meta.fill(Meta::default());
+        self.rec.fill(Record::default());
     }
 }
 

@@ -268,7 +268,7 @@ impl Denoiser {
     /// call; 0 where there is no surface. For debug views and tests.
     pub fn history_len(&self) -> Vec<f32> {
         // After a call the freshest history sits in `prev` (swapped at the end).
-        self.prev.meta.iter().map(|m| m.len).collect()
+        self.prev.rec.iter().map(|r| r.meta.len).collect()
     }
 
     /// Denoises `un` and `sn` in place with identical per-pixel weights (the
@@ -294,11 +294,11 @@ impl Denoiser {
     pub fn settled_tiles(&self, min_history: f32) -> Vec<u8> {
         let (w, h) = (self.width as usize, self.height as usize);
         let tw = self.tiles.columns();
-        if self.prev.meta.len() != w * h || self.tiles.count() == 0 {
+        if self.prev.rec.len() != w * h || self.tiles.count() == 0 {
             return Vec::new();
         }
         // After a call the freshest history sits in `prev`.
-        let meta = &self.prev.meta;
+        let rec = &self.prev.rec;
         (0..self.tiles.count())
             .into_par_iter()
             .map(|t| {
@@ -308,7 +308,7 @@ impl Denoiser {
                 }
                 let long = (ty * TILE..((ty + 1) * TILE).min(h)).all(|y| {
                     (tx * TILE..((tx + 1) * TILE).min(w)).all(|x| {
-                        let m = &meta[y * w + x];
+                        let m = &rec[y * w + x].meta;
                         m.depth <= 0.0 || m.len >= min_history
                     })
                 });

@@ -5,7 +5,7 @@
 //! different sample sets and silently break the ratio, so the factor depends
 //! only on the history length, never on the signal values.
 
-use super::history::{History, Meta, decode_normal, encode_normal};
+use super::history::{History, Meta, Record, decode_normal, encode_normal};
 use super::noise;
 use super::spatial::lanes::{M, V, each};
 use super::spatial::{self, LANES, Planes};
@@ -100,9 +100,7 @@ pub(crate) fn accumulate(
     let (ss, sp) = (acc.stride, acc.pad);
     let (ms, mp) = (moments.stride, moments.pad);
     (
-        cur.un.par_chunks_mut(w),
-        cur.sn.par_chunks_mut(w),
-        cur.meta.par_chunks_mut(w),
+        cur.rec.par_chunks_mut(w),
         (guides.par_rows_mut(), acc.par_rows_mut()),
         moments.par_rows_mut(),
         row_class.par_chunks_mut(tw),
@@ -111,16 +109,14 @@ pub(crate) fn accumulate(
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(y, (h_un, h_sn, h_meta, (gd, ar), raw, class, un, sn))| {
+        .for_each(|(y, (h, (gd, ar), raw, class, un, sn))| {
             isa::run(Row {
                 guide,
                 prev,
                 unsampled,
                 settings,
                 y,
-                h_un,
-                h_sn,
-                h_meta,
+                h,
                 gd,
                 ar,
                 raw,
@@ -141,9 +137,8 @@ struct Row<'a, 'g> {
     unsampled: &'a [u8],
     settings: &'a DenoiseSettings,
     y: usize,
-    h_un: &'a mut [Vec3],
-    h_sn: &'a mut [Vec3],
-    h_meta: &'a mut [Meta],
+    /// The row's history records.
+    h: &'a mut [Record],
     /// The row's blocks of the guide planes and of the accumulated signal
     /// planes.
     gd: &'a mut [f32],
@@ -168,9 +163,7 @@ impl Kernel for Row<'_, '_> {
             unsampled,
             settings,
             y,
-            h_un,
-            h_sn,
-            h_meta,
+            h,
             gd,
             ar,
             raw,
@@ -209,9 +202,7 @@ impl Kernel for Row<'_, '_> {
                 if !(d > 0.0 && d.is_finite()) {
                     // No surface: pass through untouched, keep no history
                     // (a finite one: reprojection reads it unmasked).
-                    h_un[x] = Vec3::ZERO;
-                    h_sn[x] = Vec3::ZERO;
-                    h_meta[x] = Meta::default();
+                    h[x] = Record::default();
                     continue;
                 }
                 // A pixel of a tile that drew no samples this frame keeps
@@ -267,8 +258,7 @@ impl Kernel for Row<'_, '_> {
                     normal,
                     ..
                 } = *p;
-                let h = hist.pixel(l);
-                let (acc_u, acc_s, m1, m2, len) = match h {
+                let (acc_u, acc_s, m1, m2, len) = match hist.pixel(l) {
                     Some(h) if skipped != 0 => (h.un, h.sn, h.m1, h.m2, h.len),
                     Some(h) => {
                         let len = (h.len + 1.0).min(cap);
@@ -287,17 +277,19 @@ impl Kernel for Row<'_, '_> {
                 };
                 un[x] = acc_u;
                 sn[x] = acc_s;
-                h_un[x] = acc_u;
-                h_sn[x] = acc_s;
-                h_meta[x] = Meta {
-                    pos,
-                    normal: encode_normal(normal),
-                    depth: d,
-                    lu,
-                    lu_diffuse,
-                    m1,
-                    m2,
-                    len,
+                h[x] = Record {
+                    meta: Meta {
+                        pos,
+                        normal: encode_normal(normal),
+                        depth: d,
+                        lu,
+                        lu_diffuse,
+                        m1,
+                        m2,
+                        len,
+                    },
+                    un: acc_u,
+                    sn: acc_s,
                 };
                 let lobe = guide.lobe.get(i).copied().unwrap_or_default();
                 let lobe_k = spatial::lobe_weight(
@@ -429,10 +421,10 @@ fn reproject_lanes(
             j[l] = cy as usize * w as usize + cx as usize;
         }
         // The records of the taps, per lane.
-        let mut f = [[0.0f32; LANES]; 16];
+        let mut f = [[0.0f32; LANES]; 17];
         for l in 0..LANES {
-            let m = &prev.meta[j[l]];
-            let (u, sg) = (prev.un[j[l]], prev.sn[j[l]]);
+            let r = &prev.rec[j[l]];
+            let (m, u, sg) = (&r.meta, r.un, r.sn);
             let v = [
                 m.depth,
                 m.pos.x,
@@ -450,12 +442,12 @@ fn reproject_lanes(
                 u.z,
                 sg.x,
                 sg.y,
+                sg.z,
             ];
             for (k, v) in v.into_iter().enumerate() {
                 f[k][l] = v;
             }
         }
-        let sz = V(each(|l| prev.sn[j[l]].z));
         let [
             md,
             mx,
@@ -473,6 +465,7 @@ fn reproject_lanes(
             ub,
             sr,
             sg,
+            sz,
         ] = [
             V(f[0]),
             V(f[1]),
@@ -490,6 +483,7 @@ fn reproject_lanes(
             V(f[13]),
             V(f[14]),
             V(f[15]),
+            V(f[16]),
         ];
         // `same_surface`, lane for lane.
         let plane = nx * (mx - pos_x) + ny * (my - pos_y) + nz * (mz - pos_z);
