@@ -94,16 +94,20 @@ pub fn resolve_hit(
         }
         GeomRef::Mesh(mi) => {
             let mesh = &world.scene.meshes[mi as usize];
-            let Some(tri) = mesh.indices.get(prim_id as usize) else {
+            let (Some(tri), Some(frame)) = (
+                mesh.indices.get(prim_id as usize),
+                world
+                    .tris
+                    .get(mi as usize)
+                    .and_then(|f| f.get(prim_id as usize)),
+            ) else {
                 return GSample::default();
             };
             let [i0, i1, i2] = tri.map(|i| i as usize);
             let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
             let b0 = 1.0 - b1 - b2;
             let position = b0 * p0 + b1 * p1 + b2 * p2;
-            let e1 = p1 - p0;
-            let e2 = p2 - p0;
-            let mut ng = e1.cross(e2).normalize_or(-dir);
+            let mut ng = frame.ng.unwrap_or(-dir);
             let mut ns = match &mesh.normals {
                 Some(n) => (b0 * n[i0] + b1 * n[i1] + b2 * n[i2]).normalize_or(ng),
                 None => ng,
@@ -115,12 +119,9 @@ pub fn resolve_hit(
             if ns.dot(ng) < 0.0 {
                 ns = -ns;
             }
-            let (uv, duv) = match &mesh.uvs {
-                Some(t) => {
-                    let (t0, t1, t2) = (t[i0], t[i1], t[i2]);
-                    (b0 * t0 + b1 * t1 + b2 * t2, Some((t1 - t0, t2 - t0)))
-                }
-                None => (Vec2::new(b1, b2), None),
+            let uv = match &mesh.uvs {
+                Some(t) => b0 * t[i0] + b1 * t[i1] + b2 * t[i2],
+                None => Vec2::new(b1, b2),
             };
             let mat = &world.scene.materials[mesh.material as usize];
             let mut diffuse = mat.diffuse;
@@ -132,10 +133,10 @@ pub fn resolve_hit(
                 Some(map) => bilinear(map, uv)[0].clamp(0.0, 1.0),
                 None => mat.roughness,
             };
-            if let (Some(map), Some((d1, d2))) = (&mat.normal_map, duv) {
+            if let (Some(map), Some((dpds, dpdt))) = (&mat.normal_map, frame.tangents) {
                 let texel = bilinear(map, uv);
                 let local = Vec3::new(texel[0], texel[1], texel[2]) * 2.0 - Vec3::ONE;
-                ns = apply_normal_map(ns, e1, e2, d1, d2, local);
+                ns = apply_normal_map(ns, dpds, dpdt, local);
             }
             let mut s = GSample {
                 kind: PixelKind::Surface,
@@ -158,16 +159,10 @@ pub fn resolve_hit(
 }
 
 /// Tangent-space normal `local` (+Y along increasing t, OpenGL convention)
-/// to world space, with the tangent frame derived from the triangle's uv
-/// parameterisation. Falls back to the unperturbed normal on degenerate uvs.
-fn apply_normal_map(ns: Vec3, e1: Vec3, e2: Vec3, d1: Vec2, d2: Vec2, local: Vec3) -> Vec3 {
-    let det = d1.x * d2.y - d2.x * d1.y;
-    if det.abs() < 1e-12 || !det.is_finite() {
-        return ns;
-    }
-    let inv = 1.0 / det;
-    let dpds = (e1 * d2.y - e2 * d1.y) * inv;
-    let dpdt = (e2 * d1.x - e1 * d2.x) * inv;
+/// to world space, in the tangent frame (`dpds`, `dpdt`) of the triangle's
+/// uv parameterisation (`TriFrame`; absent on degenerate uvs, where the
+/// normal stays unperturbed).
+fn apply_normal_map(ns: Vec3, dpds: Vec3, dpdt: Vec3, local: Vec3) -> Vec3 {
     // Gram-Schmidt against the (possibly flipped) shading normal; the
     // bitangent keeps the handedness the uv mapping has.
     let Some(t) = (dpds - ns * ns.dot(dpds)).try_normalize() else {
