@@ -124,17 +124,32 @@ pub fn resolve_hit(
                 None => Vec2::new(b1, b2),
             };
             let mat = &world.scene.materials[mesh.material as usize];
+            // A material's maps usually share one size: their texel
+            // footprint at `uv` is then worked out once.
+            let mut last: Option<((u32, u32), Footprint)> = None;
+            let mut sample = |map: &Texture| {
+                let size = (map.width, map.height);
+                let fp = match last {
+                    Some((s, fp)) if s == size => fp,
+                    _ => {
+                        let fp = Footprint::new(map, uv);
+                        last = Some((size, fp));
+                        fp
+                    }
+                };
+                fp.blend(map)
+            };
             let mut diffuse = mat.diffuse;
             if let Some(map) = &mat.diffuse_map {
-                let texel = bilinear(map, uv);
+                let texel = sample(map);
                 diffuse *= Vec3::new(texel[0], texel[1], texel[2]);
             }
             let roughness = match &mat.roughness_map {
-                Some(map) => bilinear(map, uv)[0].clamp(0.0, 1.0),
+                Some(map) => sample(map)[0].clamp(0.0, 1.0),
                 None => mat.roughness,
             };
             if let (Some(map), Some((dpds, dpdt))) = (&mat.normal_map, frame.tangents) {
-                let texel = bilinear(map, uv);
+                let texel = sample(map);
                 let local = Vec3::new(texel[0], texel[1], texel[2]) * 2.0 - Vec3::ONE;
                 ns = apply_normal_map(ns, dpds, dpdt, local);
             }
@@ -182,40 +197,68 @@ fn set_motion(s: &mut GSample, prev: &CameraFrame) {
     }
 }
 
-/// `Texture::sample` (bilinear, repeating, texel centres at +0.5, v from
-/// the bottom), value for value, with the four channels blended at once
-/// and the wrap reduced to the two cases its coordinates reach: the
-/// fractional part keeps them in -1 ..= width, so only -1 and width wrap.
-#[inline]
-fn bilinear(tex: &Texture, uv: Vec2) -> [f32; 4] {
-    let (w, h) = (tex.width as i64, tex.height as i64);
-    if w == 0 || h == 0 || !uv.is_finite() {
-        return [0.0; 4];
-    }
-    let s = uv.x - floor(uv.x);
-    let t = uv.y - floor(uv.y);
-    let x = s * tex.width as f32 - 0.5;
-    let y = (1.0 - t) * tex.height as f32 - 0.5;
-    let (x0, y0) = (floor(x), floor(y));
-    let (fx, fy) = (x - x0, y - y0);
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let wrap = |i: i64, n: i64| {
-        if i < 0 {
-            n - 1
-        } else if i >= n {
-            0
-        } else {
-            i
+/// Where `Texture::sample` (bilinear, repeating, texel centres at +0.5, v
+/// from the bottom) reads at one uv: the four texel indices and the blend
+/// weights, value for value, with the wrap reduced to the two cases its
+/// coordinates reach: the fractional part keeps them in -1 ..= width, so
+/// only -1 and width wrap. Depends on the texture's size only.
+#[derive(Debug, Clone, Copy)]
+struct Footprint {
+    /// `None`: an empty texture or a non-finite uv (reads as zero).
+    texels: Option<[usize; 4]>,
+    fx: f32,
+    fy: f32,
+}
+
+impl Footprint {
+    #[inline]
+    fn new(tex: &Texture, uv: Vec2) -> Footprint {
+        let (w, h) = (tex.width as i64, tex.height as i64);
+        if w == 0 || h == 0 || !uv.is_finite() {
+            return Footprint {
+                texels: None,
+                fx: 0.0,
+                fy: 0.0,
+            };
         }
-    };
-    let (xa, xb) = (wrap(x0, w), wrap(x0 + 1, w));
-    let (ya, yb) = (wrap(y0, h) * w, wrap(y0 + 1, h) * w);
-    let texel = |i: i64| Vec4::from_array(tex.texels.get(i as usize).copied().unwrap_or([0.0; 4]));
-    let (a, b) = (texel(ya + xa), texel(ya + xb));
-    let (c, d) = (texel(yb + xa), texel(yb + xb));
-    let top = a + (b - a) * fx;
-    let bottom = c + (d - c) * fx;
-    (top + (bottom - top) * fy).to_array()
+        let s = uv.x - floor(uv.x);
+        let t = uv.y - floor(uv.y);
+        let x = s * tex.width as f32 - 0.5;
+        let y = (1.0 - t) * tex.height as f32 - 0.5;
+        let (x0, y0) = (floor(x), floor(y));
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let wrap = |i: i64, n: i64| {
+            if i < 0 {
+                n - 1
+            } else if i >= n {
+                0
+            } else {
+                i
+            }
+        };
+        let (xa, xb) = (wrap(x0, w), wrap(x0 + 1, w));
+        let (ya, yb) = (wrap(y0, h) * w, wrap(y0 + 1, h) * w);
+        Footprint {
+            texels: Some([ya + xa, ya + xb, yb + xa, yb + xb].map(|i| i as usize)),
+            fx,
+            fy,
+        }
+    }
+
+    /// The four channels blended at once.
+    #[inline]
+    fn blend(&self, tex: &Texture) -> [f32; 4] {
+        let Some([ia, ib, ic, id]) = self.texels else {
+            return [0.0; 4];
+        };
+        let texel = |i: usize| Vec4::from_array(tex.texels.get(i).copied().unwrap_or([0.0; 4]));
+        let (a, b) = (texel(ia), texel(ib));
+        let (c, d) = (texel(ic), texel(id));
+        let top = a + (b - a) * self.fx;
+        let bottom = c + (d - c) * self.fx;
+        (top + (bottom - top) * self.fy).to_array()
+    }
 }
 
 /// The texture's floor: exact, without a libm call or a float-to-integer
