@@ -94,16 +94,20 @@ pub fn resolve_hit(
         }
         GeomRef::Mesh(mi) => {
             let mesh = &world.scene.meshes[mi as usize];
-            let Some(tri) = mesh.indices.get(prim_id as usize) else {
+            let (Some(tri), Some(frame)) = (
+                mesh.indices.get(prim_id as usize),
+                world
+                    .tris
+                    .get(mi as usize)
+                    .and_then(|f| f.get(prim_id as usize)),
+            ) else {
                 return GSample::default();
             };
             let [i0, i1, i2] = tri.map(|i| i as usize);
             let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
             let b0 = 1.0 - b1 - b2;
             let position = b0 * p0 + b1 * p1 + b2 * p2;
-            let e1 = p1 - p0;
-            let e2 = p2 - p0;
-            let mut ng = e1.cross(e2).normalize_or(-dir);
+            let mut ng = frame.ng.unwrap_or(-dir);
             let mut ns = match &mesh.normals {
                 Some(n) => (b0 * n[i0] + b1 * n[i1] + b2 * n[i2]).normalize_or(ng),
                 None => ng,
@@ -115,27 +119,39 @@ pub fn resolve_hit(
             if ns.dot(ng) < 0.0 {
                 ns = -ns;
             }
-            let (uv, duv) = match &mesh.uvs {
-                Some(t) => {
-                    let (t0, t1, t2) = (t[i0], t[i1], t[i2]);
-                    (b0 * t0 + b1 * t1 + b2 * t2, Some((t1 - t0, t2 - t0)))
-                }
-                None => (Vec2::new(b1, b2), None),
+            let uv = match &mesh.uvs {
+                Some(t) => b0 * t[i0] + b1 * t[i1] + b2 * t[i2],
+                None => Vec2::new(b1, b2),
             };
             let mat = &world.scene.materials[mesh.material as usize];
+            // A material's maps usually share one size: their texel
+            // footprint at `uv` is then worked out once.
+            let mut last: Option<((u32, u32), Footprint)> = None;
+            let mut sample = |map: &Texture| {
+                let size = (map.width, map.height);
+                let fp = match last {
+                    Some((s, fp)) if s == size => fp,
+                    _ => {
+                        let fp = Footprint::new(map, uv);
+                        last = Some((size, fp));
+                        fp
+                    }
+                };
+                fp.blend(map)
+            };
             let mut diffuse = mat.diffuse;
             if let Some(map) = &mat.diffuse_map {
-                let texel = bilinear(map, uv);
+                let texel = sample(map);
                 diffuse *= Vec3::new(texel[0], texel[1], texel[2]);
             }
             let roughness = match &mat.roughness_map {
-                Some(map) => bilinear(map, uv)[0].clamp(0.0, 1.0),
+                Some(map) => sample(map)[0].clamp(0.0, 1.0),
                 None => mat.roughness,
             };
-            if let (Some(map), Some((d1, d2))) = (&mat.normal_map, duv) {
-                let texel = bilinear(map, uv);
+            if let (Some(map), Some((dpds, dpdt))) = (&mat.normal_map, frame.tangents) {
+                let texel = sample(map);
                 let local = Vec3::new(texel[0], texel[1], texel[2]) * 2.0 - Vec3::ONE;
-                ns = apply_normal_map(ns, e1, e2, d1, d2, local);
+                ns = apply_normal_map(ns, dpds, dpdt, local);
             }
             let mut s = GSample {
                 kind: PixelKind::Surface,
@@ -158,16 +174,10 @@ pub fn resolve_hit(
 }
 
 /// Tangent-space normal `local` (+Y along increasing t, OpenGL convention)
-/// to world space, with the tangent frame derived from the triangle's uv
-/// parameterisation. Falls back to the unperturbed normal on degenerate uvs.
-fn apply_normal_map(ns: Vec3, e1: Vec3, e2: Vec3, d1: Vec2, d2: Vec2, local: Vec3) -> Vec3 {
-    let det = d1.x * d2.y - d2.x * d1.y;
-    if det.abs() < 1e-12 || !det.is_finite() {
-        return ns;
-    }
-    let inv = 1.0 / det;
-    let dpds = (e1 * d2.y - e2 * d1.y) * inv;
-    let dpdt = (e2 * d1.x - e1 * d2.x) * inv;
+/// to world space, in the tangent frame (`dpds`, `dpdt`) of the triangle's
+/// uv parameterisation (`TriFrame`; absent on degenerate uvs, where the
+/// normal stays unperturbed).
+fn apply_normal_map(ns: Vec3, dpds: Vec3, dpdt: Vec3, local: Vec3) -> Vec3 {
     // Gram-Schmidt against the (possibly flipped) shading normal; the
     // bitangent keeps the handedness the uv mapping has.
     let Some(t) = (dpds - ns * ns.dot(dpds)).try_normalize() else {
@@ -187,40 +197,68 @@ fn set_motion(s: &mut GSample, prev: &CameraFrame) {
     }
 }
 
-/// `Texture::sample` (bilinear, repeating, texel centres at +0.5, v from
-/// the bottom), value for value, with the four channels blended at once
-/// and the wrap reduced to the two cases its coordinates reach: the
-/// fractional part keeps them in -1 ..= width, so only -1 and width wrap.
-#[inline]
-fn bilinear(tex: &Texture, uv: Vec2) -> [f32; 4] {
-    let (w, h) = (tex.width as i64, tex.height as i64);
-    if w == 0 || h == 0 || !uv.is_finite() {
-        return [0.0; 4];
-    }
-    let s = uv.x - floor(uv.x);
-    let t = uv.y - floor(uv.y);
-    let x = s * tex.width as f32 - 0.5;
-    let y = (1.0 - t) * tex.height as f32 - 0.5;
-    let (x0, y0) = (floor(x), floor(y));
-    let (fx, fy) = (x - x0, y - y0);
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let wrap = |i: i64, n: i64| {
-        if i < 0 {
-            n - 1
-        } else if i >= n {
-            0
-        } else {
-            i
+/// Where `Texture::sample` (bilinear, repeating, texel centres at +0.5, v
+/// from the bottom) reads at one uv: the four texel indices and the blend
+/// weights, value for value, with the wrap reduced to the two cases its
+/// coordinates reach: the fractional part keeps them in -1 ..= width, so
+/// only -1 and width wrap. Depends on the texture's size only.
+#[derive(Debug, Clone, Copy)]
+struct Footprint {
+    /// `None`: an empty texture or a non-finite uv (reads as zero).
+    texels: Option<[usize; 4]>,
+    fx: f32,
+    fy: f32,
+}
+
+impl Footprint {
+    #[inline]
+    fn new(tex: &Texture, uv: Vec2) -> Footprint {
+        let (w, h) = (tex.width as i64, tex.height as i64);
+        if w == 0 || h == 0 || !uv.is_finite() {
+            return Footprint {
+                texels: None,
+                fx: 0.0,
+                fy: 0.0,
+            };
         }
-    };
-    let (xa, xb) = (wrap(x0, w), wrap(x0 + 1, w));
-    let (ya, yb) = (wrap(y0, h) * w, wrap(y0 + 1, h) * w);
-    let texel = |i: i64| Vec4::from_array(tex.texels.get(i as usize).copied().unwrap_or([0.0; 4]));
-    let (a, b) = (texel(ya + xa), texel(ya + xb));
-    let (c, d) = (texel(yb + xa), texel(yb + xb));
-    let top = a + (b - a) * fx;
-    let bottom = c + (d - c) * fx;
-    (top + (bottom - top) * fy).to_array()
+        let s = uv.x - floor(uv.x);
+        let t = uv.y - floor(uv.y);
+        let x = s * tex.width as f32 - 0.5;
+        let y = (1.0 - t) * tex.height as f32 - 0.5;
+        let (x0, y0) = (floor(x), floor(y));
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let wrap = |i: i64, n: i64| {
+            if i < 0 {
+                n - 1
+            } else if i >= n {
+                0
+            } else {
+                i
+            }
+        };
+        let (xa, xb) = (wrap(x0, w), wrap(x0 + 1, w));
+        let (ya, yb) = (wrap(y0, h) * w, wrap(y0 + 1, h) * w);
+        Footprint {
+            texels: Some([ya + xa, ya + xb, yb + xa, yb + xb].map(|i| i as usize)),
+            fx,
+            fy,
+        }
+    }
+
+    /// The four channels blended at once.
+    #[inline]
+    fn blend(&self, tex: &Texture) -> [f32; 4] {
+        let Some([ia, ib, ic, id]) = self.texels else {
+            return [0.0; 4];
+        };
+        let texel = |i: usize| Vec4::from_array(tex.texels.get(i).copied().unwrap_or([0.0; 4]));
+        let (a, b) = (texel(ia), texel(ib));
+        let (c, d) = (texel(ic), texel(id));
+        let top = a + (b - a) * self.fx;
+        let bottom = c + (d - c) * self.fx;
+        (top + (bottom - top) * self.fy).to_array()
+    }
 }
 
 /// The texture's floor: exact, without a libm call or a float-to-integer

@@ -54,8 +54,16 @@ pub fn trace_rows(
     let width = cam.width;
     let rows = (out.len() / width as usize) as u32;
     let mut rays = Rays16::default();
+    // `CameraFrame::ray_dir`'s image-plane coordinates, term for term, for
+    // an offset shared by every pixel.
+    let o = offset.at(0);
+    let plane_x =
+        |i: u32| (2.0 * (i as f32 + o.x) / cam.width as f32 - 1.0) * cam.tan_half * cam.aspect;
+    let plane_y = |j: u32| (1.0 - 2.0 * (j as f32 + o.y) / cam.height as f32) * cam.tan_half;
     for py in (0..rows).step_by(PACKET_H as usize) {
+        let ys: [f32; PACKET_H as usize] = std::array::from_fn(|k| plane_y(y0 + py + k as u32));
         for px in (0..width).step_by(PACKET_W as usize) {
+            let xs: [f32; PACKET_W as usize] = std::array::from_fn(|k| plane_x(px + k as u32));
             rays.active = 0;
             for lane in 0..16u32 {
                 let (i, r) = (px + lane % PACKET_W, py + lane / PACKET_W);
@@ -63,8 +71,21 @@ pub fn trace_rows(
                     continue;
                 }
                 let j = y0 + r;
-                let o = offset.at(j * width + i);
-                let d = cam.ray_dir(i, j, o.x, o.y);
+                let d = match offset {
+                    // One sub-pixel position for every pixel: the image-plane
+                    // coordinates are a column's and a row's, computed once.
+                    PixelOffset::Centre | PixelOffset::Frame(_) => {
+                        let (x, y) = (
+                            xs[(lane % PACKET_W) as usize],
+                            ys[(lane / PACKET_W) as usize],
+                        );
+                        (cam.forward + x * cam.right + y * cam.up).normalize()
+                    }
+                    PixelOffset::Jitter { .. } => {
+                        let o = offset.at(j * width + i);
+                        cam.ray_dir(i, j, o.x, o.y)
+                    }
+                };
                 let l = lane as usize;
                 (rays.ox[l], rays.oy[l], rays.oz[l]) = (cam.eye.x, cam.eye.y, cam.eye.z);
                 (rays.dx[l], rays.dy[l], rays.dz[l]) = (d.x, d.y, d.z);
