@@ -3,9 +3,9 @@
 //! stages never touch meshes or textures.
 
 use super::world::{GeomRef, World};
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec2, Vec3};
 use penumbra_scene::CameraFrame;
-use penumbra_scene::Texture;
+use penumbra_scene::{TexelFootprint, Texture};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PixelKind {
@@ -126,18 +126,18 @@ pub fn resolve_hit(
             let mat = &world.scene.materials[mesh.material as usize];
             // A material's maps usually share one size: their texel
             // footprint at `uv` is then worked out once.
-            let mut last: Option<((u32, u32), Footprint)> = None;
+            let mut last: Option<((u32, u32), TexelFootprint)> = None;
             let mut sample = |map: &Texture| {
                 let size = (map.width, map.height);
                 let fp = match last {
                     Some((s, fp)) if s == size => fp,
                     _ => {
-                        let fp = Footprint::new(map, uv);
+                        let fp = map.footprint(uv);
                         last = Some((size, fp));
                         fp
                     }
                 };
-                fp.blend(map)
+                fp.sample(map)
             };
             let mut diffuse = mat.diffuse;
             if let Some(map) = &mat.diffuse_map {
@@ -194,86 +194,5 @@ fn set_motion(s: &mut GSample, prev: &CameraFrame) {
     if let Some((x, y)) = prev.project(s.position) {
         s.prev_pixel = Vec2::new(x, y);
         s.prev_valid = true;
-    }
-}
-
-/// Where `Texture::sample` (bilinear, repeating, texel centres at +0.5, v
-/// from the bottom) reads at one uv: the four texel indices and the blend
-/// weights, value for value, with the wrap reduced to the two cases its
-/// coordinates reach: the fractional part keeps them in -1 ..= width, so
-/// only -1 and width wrap. Depends on the texture's size only.
-#[derive(Debug, Clone, Copy)]
-struct Footprint {
-    /// `None`: an empty texture or a non-finite uv (reads as zero).
-    texels: Option<[usize; 4]>,
-    fx: f32,
-    fy: f32,
-}
-
-impl Footprint {
-    #[inline]
-    fn new(tex: &Texture, uv: Vec2) -> Footprint {
-        let (w, h) = (tex.width as i64, tex.height as i64);
-        if w == 0 || h == 0 || !uv.is_finite() {
-            return Footprint {
-                texels: None,
-                fx: 0.0,
-                fy: 0.0,
-            };
-        }
-        let s = uv.x - floor(uv.x);
-        let t = uv.y - floor(uv.y);
-        let x = s * tex.width as f32 - 0.5;
-        let y = (1.0 - t) * tex.height as f32 - 0.5;
-        let (x0, y0) = (floor(x), floor(y));
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let wrap = |i: i64, n: i64| {
-            if i < 0 {
-                n - 1
-            } else if i >= n {
-                0
-            } else {
-                i
-            }
-        };
-        let (xa, xb) = (wrap(x0, w), wrap(x0 + 1, w));
-        let (ya, yb) = (wrap(y0, h) * w, wrap(y0 + 1, h) * w);
-        Footprint {
-            texels: Some([ya + xa, ya + xb, yb + xa, yb + xb].map(|i| i as usize)),
-            fx,
-            fy,
-        }
-    }
-
-    /// The four channels blended at once.
-    #[inline]
-    fn blend(&self, tex: &Texture) -> [f32; 4] {
-        let Some([ia, ib, ic, id]) = self.texels else {
-            return [0.0; 4];
-        };
-        let texel = |i: usize| Vec4::from_array(tex.texels.get(i).copied().unwrap_or([0.0; 4]));
-        let (a, b) = (texel(ia), texel(ib));
-        let (c, d) = (texel(ic), texel(id));
-        let top = a + (b - a) * self.fx;
-        let bottom = c + (d - c) * self.fx;
-        (top + (bottom - top) * self.fy).to_array()
-    }
-}
-
-/// The texture's floor: exact, without a libm call or a float-to-integer
-/// conversion below 2^22 (adding and removing 1.5 * 2^23 rounds to an
-/// integer), nor a libm call below 2^31.
-#[inline]
-fn floor(x: f32) -> f32 {
-    const ROUND: f32 = 12_582_912.0;
-    if x.abs() < 4_194_304.0 {
-        let t = (x + ROUND) - ROUND;
-        if t > x { t - 1.0 } else { t }
-    } else if x.abs() < 2_147_483_648.0 {
-        let t = x as i32 as f32;
-        if t > x { t - 1.0 } else { t }
-    } else {
-        x.floor()
     }
 }

@@ -15,7 +15,7 @@ mod texture;
 pub use camera::{Camera, CameraFrame};
 pub use error::SceneError;
 pub use lights::LightError;
-pub use texture::{Encoding, Texture};
+pub use texture::{Encoding, TexelFootprint, Texture};
 
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};

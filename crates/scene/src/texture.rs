@@ -10,7 +10,7 @@
 //! - Addressing wraps (repeat) in both directions; filtering is bilinear
 //!   between texel centres.
 
-use glam::Vec2;
+use glam::{Vec2, Vec4};
 use std::path::Path;
 
 /// An image in linear floating point, RGBA, row 0 at the top.
@@ -59,16 +59,48 @@ fn wrap(i: i64, n: i64) -> i64 {
 }
 
 /// `x.floor()` without the libm call it compiles to on baseline x86-64
-/// (no SSE4.1 `roundss`): twelve per G-buffer pixel on a fully mapped
-/// material. Exact for |x| < 2^31, where truncation to i32 is exact; the
-/// rest (and NaN) takes the library's floor.
+/// (no SSE4.1 `roundss`), exact: below 2^22 adding and removing 1.5 * 2^23
+/// rounds to an integer (no float-to-integer conversion), below 2^31
+/// truncation to i32 is exact; the rest (and NaN) takes the library's floor.
 #[inline]
 fn floor(x: f32) -> f32 {
-    if x.abs() < 2_147_483_648.0 {
+    const ROUND: f32 = 12_582_912.0;
+    if x.abs() < 4_194_304.0 {
+        let t = (x + ROUND) - ROUND;
+        if t > x { t - 1.0 } else { t }
+    } else if x.abs() < 2_147_483_648.0 {
         let t = x as i32 as f32;
         if t > x { t - 1.0 } else { t }
     } else {
         x.floor()
+    }
+}
+
+/// Where a bilinear sample at one uv reads: the four texel indices and the
+/// blend weights. It depends on the texture's size only, so maps of one
+/// size share it (`Texture::footprint`, then `sample` per map).
+#[derive(Debug, Clone, Copy)]
+pub struct TexelFootprint {
+    /// `None`: an empty texture or a non-finite uv (reads as zero).
+    texels: Option<[usize; 4]>,
+    fx: f32,
+    fy: f32,
+}
+
+impl TexelFootprint {
+    /// The four channels of `tex` (a texture of the size this footprint was
+    /// made for) blended at once.
+    #[inline]
+    pub fn sample(&self, tex: &Texture) -> [f32; 4] {
+        let Some([ia, ib, ic, id]) = self.texels else {
+            return [0.0; 4];
+        };
+        let texel = |i: usize| Vec4::from_array(tex.texels.get(i).copied().unwrap_or([0.0; 4]));
+        let (a, b) = (texel(ia), texel(ib));
+        let (c, d) = (texel(ic), texel(id));
+        let top = a + (b - a) * self.fx;
+        let bottom = c + (d - c) * self.fx;
+        (top + (bottom - top) * self.fy).to_array()
     }
 }
 
@@ -155,18 +187,23 @@ impl Texture {
         })
     }
 
-    fn texel(&self, x: i64, y: i64) -> [f32; 4] {
-        let (w, h) = (self.width as i64, self.height as i64);
-        let idx = (wrap(y, h) * w + wrap(x, w)) as usize;
-        self.texels.get(idx).copied().unwrap_or([0.0; 4])
-    }
-
     /// Bilinear sample at (s, t) with repeat addressing; (0, 0) is the
     /// bottom-left corner of the image (see the module notes). Returns zeros
     /// for an empty texture or non-finite coordinates.
     pub fn sample(&self, uv: Vec2) -> [f32; 4] {
-        if self.width == 0 || self.height == 0 || !uv.is_finite() {
-            return [0.0; 4];
+        self.footprint(uv).sample(self)
+    }
+
+    /// Where `sample` reads at `uv`.
+    #[inline]
+    pub fn footprint(&self, uv: Vec2) -> TexelFootprint {
+        let (w, h) = (self.width as i64, self.height as i64);
+        if w == 0 || h == 0 || !uv.is_finite() {
+            return TexelFootprint {
+                texels: None,
+                fx: 0.0,
+                fy: 0.0,
+            };
         }
         // Continuous texel coordinates with texel centres at integers + 0.5;
         // y counts rows from the top, hence 1 - t. fract keeps the numbers
@@ -178,16 +215,12 @@ impl Texture {
         let (x0, y0) = (floor(x), floor(y));
         let (fx, fy) = (x - x0, y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let a = self.texel(x0, y0);
-        let b = self.texel(x0 + 1, y0);
-        let c = self.texel(x0, y0 + 1);
-        let d = self.texel(x0 + 1, y0 + 1);
-        let mut out = [0.0; 4];
-        for k in 0..4 {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bottom = c[k] + (d[k] - c[k]) * fx;
-            out[k] = top + (bottom - top) * fy;
+        let (xa, xb) = (wrap(x0, w), wrap(x0 + 1, w));
+        let (ya, yb) = (wrap(y0, h) * w, wrap(y0 + 1, h) * w);
+        TexelFootprint {
+            texels: Some([ya + xa, ya + xb, yb + xa, yb + xb].map(|i| i as usize)),
+            fx,
+            fy,
         }
-        out
     }
 }
