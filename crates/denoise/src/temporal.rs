@@ -575,6 +575,22 @@ fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LA
     })
 }
 
+/// The 2x2 bilinear footprint, in the previous frame, of the end of pixel
+/// (x, y)'s motion vector, as [`bilinear_taps`] gives it: the colour
+/// resolve's history taps.
+#[inline]
+pub(super) fn bilinear_footprint(
+    guide: &GuideBuffers,
+    x: usize,
+    y: usize,
+) -> Option<[Option<(usize, f32)>; 4]> {
+    bilinear_taps(
+        guide.prev_pixel[y * guide.width as usize + x],
+        guide.width,
+        guide.height,
+    )
+}
+
 /// The four bilinear taps of continuous pixel position `at` (pixel centres
 /// at +0.5) on a `width` x `height` grid: each tap's (index, weight), in a
 /// fixed order, `None` for a tap off-screen or of zero weight (so a
