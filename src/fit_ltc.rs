@@ -64,6 +64,17 @@ pub const FIT_MIN_COS_VIEW: f32 = 1e-3;
 const SHARE_FLOOR: f64 = 0.01;
 /// Nelder-Mead budgets (evaluations) and relative tolerance.
 const EVALS_ISO: usize = 200;
+/// The least share of a fitted distribution above the horizon (`hmass`).
+/// U divides each lobe's polygon integral by it, so a cell whose fit hides
+/// most of its cosine below the horizon multiplies the rounding of that
+/// integral by `1 / hmass`: unconstrained, 172 cells of the Schlick lobe
+/// and 4 of the F0 lobe fell below 1e-3, many to 1e-6 (a factor of 1e6). The floor keeps the factor <= 20, so the
+/// integral can be summed in `f32`; the fit pays for it only where the lobe
+/// carries almost nothing (near-normal views, where `(1 - wo.h)^5` ~ 0).
+pub const HMASS_FLOOR: f64 = 0.05;
+/// How steeply the objective rises below the floor (per squared relative
+/// shortfall): far above any fit error, so the minimiser stays above it.
+const HMASS_PENALTY: f64 = 1e3;
 const EVALS_ANISO: usize = 600;
 const FTOL: f64 = 1e-7;
 
@@ -313,7 +324,8 @@ impl Lobe {
     /// The fit objective: mean squared relative error, each against
     /// `reference + SHARE_FLOOR * mag`.
     fn objective(&self, ltc: &Ltc, mix: f64) -> f64 {
-        let mut sum = 0.0;
+        let short = ((HMASS_FLOOR - ltc.hmass) / HMASS_FLOOR).max(0.0);
+        let mut sum = HMASS_PENALTY * short * short * self.polys.len() as f64;
         for (k, &r) in self.reference.iter().enumerate() {
             let den = (r + SHARE_FLOOR * self.mag).max(1e-300);
             let e = (self.model(ltc, mix, k) - r) / den;

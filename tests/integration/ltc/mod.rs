@@ -6,6 +6,7 @@ mod image_accuracy;
 mod light_bound;
 mod many_lights_image;
 mod properties;
+mod table;
 mod u_batch;
 mod unshadowed_mode;
 mod validation;
