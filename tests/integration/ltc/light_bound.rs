@@ -14,7 +14,9 @@ use penumbra::scene::Light;
 use penumbra::shading::brdf::alpha_from_roughness;
 use penumbra::shading::far_light::{WidePoints, form_factor_rounding, form_factors, ggx_bounds};
 use penumbra::shading::light_bound::{LightExtent, PointGroup};
-use penumbra::shading::u_batch::{BatchLight, LANES, LaneLobes, PixelBatch, lobes_batch};
+use penumbra::shading::u_batch::{
+    BatchLight, LANES, LaneLobes, PIXEL_TOL, PixelBatch, RADIANCE_TOL, lobes_batch,
+};
 use penumbra::shading::{ShadingLight, SurfacePoint, unshadowed_lobes_prepared};
 
 /// Tiles and lights drawn.
@@ -22,7 +24,10 @@ const TILES: usize = 300;
 const LIGHTS_PER_TILE: usize = 12;
 /// Points of a tile (8 x 8 pixels).
 const POINTS: usize = 64;
-/// Rounding allowance of a bound against the computed `U`.
+/// Rounding allowance of a bound against the computed `U` (relative), and
+/// the batch's stated `f32` accuracy on top of it (`u_batch::PIXEL_TOL`,
+/// `RADIANCE_TOL`): a lobe the bound says is nearly 0 may come out of the
+/// lanes as rounding noise of that size.
 const ROUNDING: f32 = 1e-4;
 /// At least this share of the drawn (tile, light) pairs must get a finite
 /// bound below the plain `L * (kd + F0-free albedo 1)` one, or the test
@@ -228,10 +233,11 @@ fn a_light_bound_per_point_holds_for_its_ggx_lobe_near_or_far() {
             ggx_bounds(&wide, &extent, &mut bound);
             let tile_bound = group.bound(&extent).specular;
             let radiance = luminance(l.radiance);
-            for (k, (_, s)) in lobes(&points, &l).into_iter().enumerate() {
+            let noise = RADIANCE_TOL * l.radiance.max_element();
+            for (k, (d, s)) in lobes(&points, &l).into_iter().enumerate() {
                 let b = bound[k] * radiance;
                 assert!(
-                    s <= b * (1.0 + ROUNDING) + 1e-12,
+                    s <= b * (1.0 + ROUNDING) + PIXEL_TOL * (d + s) + noise + 1e-12,
                     "GGX {s:e} over its per-point bound {b:e} at point {k}, light {l:?}"
                 );
                 if b > 0.0 {

@@ -1,29 +1,31 @@
 //! Lanes, one pixel (or one pixel's node) per lane, for the batched `U`
 //! (`u_batch`) and its shape correction
-//! (`ltc_correction::lobe_factors_lanes`): `Wide`, four `f64` lanes (the
-//! contour sums; see `u_batch` for why not `f32`), and `Wide8`, eight `f32`
-//! lanes (the correction's cubature nodes, two nodes of four pixels per
-//! value: it needs ~1e-3, and eight lanes are one register as four `f64`
-//! are).
+//! (`ltc_correction::lobe_factors_lanes`): `Wide`, eight `f32` lanes (one
+//! pixel each: the contour sums, whose rounding each lane bounds against
+//! its pixel's whole `U`; see `u_batch`), `Quad`, four `f64` lanes (half a
+//! batch: the correction's per-pixel fan, where a small light cancels), and
+//! `Wide8`, eight `f32` lanes (the correction's cubature nodes, two nodes of
+//! a half batch's four pixels per value: it needs ~1e-3).
 //!
 //! Every operation is a fixed loop over the lanes, inlined always, which
 //! LLVM turns into vector instructions (one AVX2 instruction at the AVX2
 //! and AVX-512 levels `isa` picks at run time, two SSE2 ones at baseline):
-//! no intrinsics, all safe Rust. Four `f64` lanes, not eight: eight `f64` (two
-//! registers per value) ran 1.26x slower per evaluation (register spills;
-//! criterion `unshadowed_batch/quad`, docs/performance.md). Comparisons give a mask of
-//! all-ones / all-zeros bit patterns, and a select picks per lane from that
-//! mask (one blend instruction; written as a bitwise and/or it took three),
-//! so lanes never branch.
+//! no intrinsics, all safe Rust. Each lane's arithmetic is the same
+//! whatever the vector width, so every level gives the same bits.
+//! Comparisons give a mask of all-ones / all-zeros bit patterns, and a
+//! select picks per lane from that mask (one blend instruction), so lanes
+//! never branch.
 
 use std::fmt::Debug;
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 /// Pixels per batch.
-pub const LANES: usize = 4;
+pub const LANES: usize = 8;
+/// Pixels per half batch (the correction's `Quad` lanes).
+pub const HALF: usize = LANES / 2;
 
 /// The element type of the batch's lanes.
-pub type BatchFloat = f64;
+pub type BatchFloat = f32;
 
 /// A lane element: `f64` or `f32`.
 pub trait Elem:
@@ -156,11 +158,15 @@ pub struct Lanes<T: Elem, const L: usize>(pub [T; L]);
 #[repr(C, align(32))]
 pub struct LaneMask<T: Elem, const L: usize>(pub [T::Bits; L]);
 
-/// Four `f64` lanes: one pixel each.
-pub type Wide = Lanes<f64, LANES>;
+/// Eight `f32` lanes: one pixel each.
+pub type Wide = Lanes<f32, LANES>;
 /// `Wide`'s mask.
-pub type Mask = LaneMask<f64, LANES>;
-/// Eight `f32` lanes: two nodes of `LANES` pixels.
+pub type Mask = LaneMask<f32, LANES>;
+/// Four `f64` lanes: the pixels of half a batch.
+pub type Quad = Lanes<f64, HALF>;
+/// `Quad`'s mask.
+pub type QuadMask = LaneMask<f64, HALF>;
+/// Eight `f32` lanes: two nodes of a half batch's `HALF` pixels.
 pub type Wide8 = Lanes<f32, 8>;
 
 #[inline(always)]
@@ -290,12 +296,11 @@ impl<T: Elem, const L: usize> Lanes<T, L> {
     }
 }
 
-impl Wide {
+impl Quad {
     /// Four `f32` lanes (glam's `Vec4`, as the batch's setup computes
     /// across pixels), exactly.
     #[inline(always)]
-    pub fn from_vec4(v: glam::Vec4) -> Wide {
-        const { assert!(LANES == 4, "one Vec4 element per lane") };
+    pub fn from_vec4(v: glam::Vec4) -> Quad {
         Lanes(v.to_array().map(f64::from))
     }
 }
@@ -303,29 +308,50 @@ impl Wide {
 impl Wide8 {
     /// `lo` in lanes 0-3 and `hi` in lanes 4-7, each rounded to `f32`.
     #[inline(always)]
-    pub fn join(lo: Wide, hi: Wide) -> Wide8 {
+    pub fn join(lo: Quad, hi: Quad) -> Wide8 {
         Lanes(each(|l| {
-            if l < LANES {
+            if l < HALF {
                 lo.0[l] as f32
             } else {
-                hi.0[l - LANES] as f32
+                hi.0[l - HALF] as f32
             }
         }))
+    }
+
+    /// `lo` in lanes 0-3 and `hi` in lanes 4-7 (a batch's two halves as
+    /// its setup computes them, four pixels per `Vec4`).
+    #[inline(always)]
+    pub fn from_halves(lo: glam::Vec4, hi: glam::Vec4) -> Wide8 {
+        let (a, b) = (lo.to_array(), hi.to_array());
+        Lanes(each(|l| if l < HALF { a[l] } else { b[l - HALF] }))
     }
 
     /// The same four `f32` lanes (`glam`'s `Vec4`) in both halves.
     #[inline(always)]
     pub fn twice(v: glam::Vec4) -> Wide8 {
-        const { assert!(LANES == 4, "one Vec4 element per lane") };
         let a = v.to_array();
-        Lanes(each(|l| a[l % LANES]))
+        Lanes(each(|l| a[l % HALF]))
     }
 
     /// Lanes 0-3 plus lanes 4-7, as `f64`: a per-pixel sum over the two
     /// nodes a value holds.
     #[inline(always)]
-    pub fn halves_sum(self) -> Wide {
-        Lanes(each(|l| f64::from(self.0[l] + self.0[l + LANES])))
+    pub fn halves_sum(self) -> Quad {
+        Lanes(each(|l| f64::from(self.0[l] + self.0[l + HALF])))
+    }
+
+    /// Half `h` (lanes `4 h..4 h + 4`) as `f64`, exactly.
+    #[inline(always)]
+    pub fn half(self, h: usize) -> Quad {
+        Lanes(each(|l| f64::from(self.0[HALF * h + l])))
+    }
+}
+
+impl LaneMask<f32, LANES> {
+    /// Half `h` (lanes `4 h..4 h + 4`) as a `Quad` mask.
+    #[inline(always)]
+    pub fn half(self, h: usize) -> QuadMask {
+        LaneMask(each(|l| bit::<f64>(self.0[HALF * h + l] != 0)))
     }
 }
 
@@ -430,7 +456,9 @@ impl<T: Elem, const L: usize> Neg for Lanes<T, L> {
 /// A vector of lanes: `[x, y, z]`.
 pub type Vec3Lanes<T, const L: usize> = [Lanes<T, L>; 3];
 /// A vector of `Wide` lanes.
-pub type Wide3 = Vec3Lanes<f64, LANES>;
+pub type Wide3 = Vec3Lanes<f32, LANES>;
+/// A vector of `Quad` lanes.
+pub type Quad3 = Vec3Lanes<f64, HALF>;
 
 #[inline(always)]
 pub fn dot<T: Elem, const L: usize>(a: &Vec3Lanes<T, L>, b: &Vec3Lanes<T, L>) -> Lanes<T, L> {
@@ -467,7 +495,7 @@ mod tests {
             let x = 10f64.powf(-300.0 + 0.1 * k as f64);
             for f in [1.0, 1.37, 2.0, 3.1, 7.9] {
                 let x = x * f;
-                let got = Wide::splat(x).rsqrt_approx().0[0];
+                let got = Quad::splat(x).rsqrt_approx().0[0];
                 worst = worst.max((got * x.sqrt() - 1.0).abs());
             }
         }
@@ -483,27 +511,30 @@ mod tests {
 
     #[test]
     fn select_min_max_and_finite_act_per_lane() {
-        let a = Wide::from_fn(|l| l as f32 - 1.5);
-        let b = Wide::splat(0.0);
+        let a = Quad::from_fn(|l| l as f32 - 1.5);
+        let b = Quad::splat(0.0);
         let m = a.lt(b);
         assert_eq!(m.select(a, b).0, [-1.5, -0.5, 0.0, 0.0]);
         assert_eq!(a.min(b), m.select(a, b));
         assert_eq!(a.max(b), m.select(b, a));
         let mut c = a;
-        c.0[1] = BatchFloat::NAN;
-        c.0[2] = BatchFloat::INFINITY;
+        c.0[1] = f64::NAN;
+        c.0[2] = f64::INFINITY;
         let f = c.finite();
         assert!(!f.lane(1) && !f.lane(2) && f.lane(0) && f.lane(3));
-        assert!(m.any() && !Mask::NONE.any());
+        assert!(m.any() && !QuadMask::NONE.any());
     }
 
     #[test]
     fn eight_lanes_hold_two_nodes_of_four_pixels() {
-        let lo = Wide::from_fn(|l| l as f32);
-        let hi = Wide::from_fn(|l| 10.0 + l as f32);
+        let lo = Quad::from_fn(|l| l as f32);
+        let hi = Quad::from_fn(|l| 10.0 + l as f32);
         let j = Wide8::join(lo, hi);
         assert_eq!(j.0, [0.0, 1.0, 2.0, 3.0, 10.0, 11.0, 12.0, 13.0]);
-        assert_eq!(j.halves_sum(), Wide::from_fn(|l| 10.0 + 2.0 * l as f32));
+        assert_eq!(j.halves_sum(), Quad::from_fn(|l| 10.0 + 2.0 * l as f32));
+        assert_eq!(j.half(1), hi);
+        let m = j.gt(Wide8::splat(2.5)).half(0);
+        assert!(!m.lane(2) && m.lane(3));
         let t = Wide8::twice(glam::Vec4::new(5.0, 6.0, 7.0, 8.0));
         assert_eq!(t.0, [5.0, 6.0, 7.0, 8.0, 5.0, 6.0, 7.0, 8.0]);
         let m = j.gt(Wide8::splat(2.5));

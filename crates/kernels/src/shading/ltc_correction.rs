@@ -31,7 +31,10 @@
 //! its divisions merged (a unit test checks it against `brdf::spec_local`),
 //! and a rational `atan` for the solid angles (max error 0.005 rad).
 
-use super::lanes::{Mask, Vec3Lanes, Wide, Wide3, Wide8, add3, cross, dot, scale3};
+// Per pixel, four to a value: half of the batched `U`'s lanes, in `f64`.
+use super::lanes::{
+    Quad as Wide, Quad3 as Wide3, QuadMask as Mask, Vec3Lanes, Wide8, add3, cross, dot, scale3,
+};
 use super::ltc::{CellLanes, LtcCell};
 use super::polygon::MAX_VERTICES;
 use super::u_batch::ltc_map;
@@ -134,7 +137,7 @@ pub struct Stakes {
 /// - `stakes`: `Stakes` (a, b, diffuse, others) of this pixel and light.
 ///
 /// One pixel through `lobe_factors_lanes` (in lane 0; the batched U runs
-/// `LANES`), so the scalar and batched paths compute the same factor with
+/// `HALF` at a time), so the scalar and batched paths compute the same factor with
 /// the same arithmetic (`f64` where a small light cancels, `f32` nodes).
 pub fn lobe_factors(
     poly: &[DVec3],
@@ -355,7 +358,7 @@ fn atan2_pos_lanes(y: Wide8, x: Wide8) -> Wide8 {
 /// vectors (`f64`).
 type Tri = [Wide3; 3];
 
-/// `lobe_factors` for `LANES` pixels at once, across pixels: lane `l` is one
+/// `lobe_factors` for `HALF` (4) pixels at once, across pixels: lane `l` is one
 /// pixel's light polygon (clipped to the horizon), given by its `N` unit
 /// vertices `u` (zero for a vertex at the shading point). A lane's polygon
 /// may repeat a vertex in consecutive slots (the batch pads clipped

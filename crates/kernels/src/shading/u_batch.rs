@@ -1,48 +1,50 @@
-//! The analytic unshadowed light `U` of `unshadowed` for `LANES` (4) pixels at a
-//! time, one pixel per lane (`lanes::Wide`, `f64` elements), branch-free
+//! The analytic unshadowed light `U` of `unshadowed` for `LANES` (8) pixels at a
+//! time, one pixel per lane (`lanes::Wide`, `f32` elements), branch-free
 //! within a batch: the three contour sums (the Lambert form factor and the
 //! two LTC lobes), the clipping of the LTC images to their horizon, and the
-//! LTC shape correction (`ltc_correction::lobe_factors_lanes`) all run
-//! across pixels.
+//! LTC shape correction (`ltc_correction::lobe_factors_lanes`, on each half
+//! batch of four pixels) all run across pixels.
 //!
 //! Per batch, what does not depend on the light is set up once, across the
-//! lanes in `f32` (`PixelBatch::new`, bit for bit the scalar path's values):
-//! the shading frame, the LTC cell (the blend of four table cells stays a
-//! per-lane gather, transposed into lanes) and the correction's constants. Per light, the vertices are taken
-//! into each lane's local frame; each contour sum is a loop over the edges
-//! with running sums.
+//! lanes in `f32`, four pixels per `Vec4` (`PixelBatch::new`, bit for bit
+//! the scalar path's values): the shading frame, the LTC cell (the blend of
+//! four table cells stays a per-lane gather, transposed into lanes) and the
+//! correction's constants. Per light, the vertices are taken into each
+//! lane's local frame; each contour sum is a loop over the edges with
+//! running sums.
 //!
-//! Why `f64` lanes. A first version ran `f32` lanes (twice the pixels per
-//! instruction) and sent the lanes it could not vouch for to the scalar
-//! path: on `room` a third of them, because the LTC images of mid-rough
-//! lobes compress lights away from the highlight, and the contour sum of a
-//! small image cancels beyond what `f32` carries (measured deviations up to
-//! 23 % there). In `f64` the same arithmetic is the scalar path's, and the
-//! fallback falls to the lights that straddle a lane's horizon.
+//! Precision. `f32` throughout, judged per pixel against the pixel's
+//! whole `U` (`PIXEL_TOL`, `RADIANCE_TOL`), not lobe by lobe: edge terms
+//! are computed from a vertex and the light's exact edge vector
+//! (`a x b = a x (b - a)`), so each keeps its own precision; theta /
+//! sin(theta) is a polynomial in the cosine (no `acos`), and an edge wider
+//! than 90 degrees takes its sine from the cross product. Two things `f32`
+//! cannot carry go to the scalar path: the LTC map of a sharp lobe seen
+//! obliquely (`MAX_CONDITION`, decided once per pixel) and an edge within
+//! a few degrees of 180 (`WIDEST_COS`). The table keeps every lobe's mass
+//! above the horizon at >= 5 % (`fit_ltc`), so no lobe multiplies its
+//! contour sum's rounding by more than about 20.
 //!
 //! Horizon clips. A light that straddles a lane's horizon is clipped to it
 //! in that lane (`clip_lane`, scalar code, the scalar path's
 //! Sutherland-Hodgman) into `N + 1` slots, and a batch with such a lane
 //! integrates all its lanes' polygons in `N + 1` slots, the unclipped ones
 //! with their first vertex repeated (an edge that adds exactly 0: their
-//! answers do not change). On the 4-light `u_pass` G-buffer this kept
-//! 12.6 % of the lanes off the scalar path, which cost four vector lanes
-//! each.
+//! answers do not change).
 //!
 //! Which lanes stay here. A lane goes to the scalar path
-//! (`unshadowed_lobes_prepared`, whose answer it then has exactly) when it
-//! lies (nearly) in the light's plane, or when the rounding bound of its
-//! contour sums exceeds `REL_TOL` of its pixel's whole `U` (this light's
-//! and what the lights shaded before it give the pixel, `set_others`; edge
-//! terms are computed from a vertex and the light's edge vector,
-//! `a x b = a x (b - a)`, so each keeps its own precision; each lane
-//! bounds the cancellation between them).
-//! Lanes unlit or entirely under the horizon get exactly 0, as in the
-//! scalar path. `tests/u_batch.rs` checks the result against the scalar
-//! path.
+//! (`unshadowed_lobes_prepared`, whose answer it then has exactly) only
+//! when it lies (nearly) in the light's plane, when its LTC map or one of
+//! its polygon's edges is too ill-conditioned for `f32` (above), when its
+//! clip could not be made (a near-degenerate light), or when its value is
+//! not finite. Lanes unlit or entirely under the horizon get exactly 0, as
+//! in the scalar path. `tests/integration/ltc/u_batch.rs` checks the
+//! result against the scalar path.
 
 use super::brdf::MIN_ALPHA;
-use super::lanes::{BatchFloat, Mask, Wide, Wide3, dot};
+use super::lanes::{
+    BatchFloat, Elem, HALF, Lanes, Mask, Quad, Quad3, QuadMask, Vec3Lanes, Wide, Wide3, dot,
+};
 use super::ltc::{self, CellLanes, LtcCell};
 use super::ltc_correction::{CorrectionLanes, Stakes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
@@ -67,13 +69,18 @@ use penumbra_scene::color::luminance;
 
 pub use super::lanes::LANES;
 
-/// Relative error of a lane's lobes (against the `f64` path, as a share of
-/// its pixel's whole `U`) that the fast path accepts; above it the lane
-/// goes to the scalar path.
-pub const REL_TOL: f32 = 2e-4;
-/// Rounding of one edge term, in ulps of its magnitude bound (rotation,
-/// LTC map, cross and dot products).
-const ERR_ULPS: BatchFloat = 16.0;
+/// The batch's stated accuracy against the `f64` scalar path, per pixel
+/// and channel: within `PIXEL_TOL` of the pixel's whole `U`, plus
+/// `RADIANCE_TOL` of the light's radiance (one light's `U` never exceeds
+/// its radiance, so this is below 1e-8 of the brightest value the light can
+/// give). `PIXEL_TOL` is about an EXR half's resolution and a tenth of the
+/// LTC fit's own median error; the absolute part covers what `f32` cannot
+/// resolve of a light a few 1e-4 rad across (its contour sum cancels to
+/// `eps / size` of itself). `tests/integration/ltc/u_batch.rs` holds the
+/// batch to both.
+pub const PIXEL_TOL: f32 = 2e-3;
+pub const RADIANCE_TOL: f32 = 1e-6;
+
 /// A point this close to the light's plane (relative to its distance) is
 /// decided by the scalar path (exactly as it decides it).
 const SIDE_TOL: f32 = 1e-5;
@@ -103,7 +110,8 @@ impl BatchLight {
         let mut e = [[0.0 as BatchFloat; 3]; MAX_LIGHT_VERTICES];
         for i in 0..n {
             let (a, b) = (light.vertices[i], light.vertices[(i + 1) % n]);
-            v[i] = a.as_dvec3().to_array().map(|x| x as BatchFloat);
+            v[i] = a.to_array();
+            // The edge in `f64`, rounded once.
             let d = b.as_dvec3() - a.as_dvec3();
             e[i] = [d.x as BatchFloat, d.y as BatchFloat, d.z as BatchFloat];
         }
@@ -111,7 +119,7 @@ impl BatchLight {
             n,
             v,
             e,
-            normal: light.normal.as_dvec3().to_array().map(|x| x as BatchFloat),
+            normal: light.normal.to_array(),
             radiance: light.radiance,
             two_sided: light.two_sided,
             scalar,
@@ -134,12 +142,12 @@ pub struct PixelBatch {
     /// B (Schlick) does.
     lobe: Mask,
     want_b: Mask,
-    /// `M^-1` of lobe A and of lobe B: m00, m02, m20, m22; their infinity
-    /// norms (for the error bound).
+    /// Lanes whose LTC map is too ill-conditioned for `f32` (`ill_conditioned`):
+    /// they take the scalar path for every light.
+    sharp: Mask,
+    /// `M^-1` of lobe A and of lobe B: m00, m02, m20, m22.
     ma: [Wide; 4],
     mb: [Wide; 4],
-    norm_a: Wide,
-    norm_b: Wide,
     /// Each lobe's LTC integral and cosine share: `share = w ltc + mix ff`.
     wa: Wide,
     mix: Wide,
@@ -147,7 +155,8 @@ pub struct PixelBatch {
     fmix: Wide,
     mag: Wide,
     fres: Wide,
-    corr: CorrectionLanes,
+    /// The correction's constants of each half batch (lanes 0-3, 4-7).
+    corr: [CorrectionLanes; 2],
     /// What the lights already shaded give each lane (luminance of `U`):
     /// the shape correction is refined only where this light's doubt
     /// matters against the pixel's whole `U` (`set_others`; 0 until set).
@@ -157,105 +166,162 @@ pub struct PixelBatch {
 impl PixelBatch {
     /// `points[l]` for each lane `l` that has one (at most `LANES`).
     ///
-    /// Across the lanes in `f32` (`Vec4`, one lane per element) with the
+    /// Across the lanes in `f32`, four pixels per `Vec4` (glam), with the
     /// scalar path's formulas in its order of operations, so every lane
-    /// gets its pixel's frame, cell and constants bit for bit; converted to
-    /// `f64` lanes once at the end.
+    /// gets its pixel's frame, cell and constants bit for bit.
     pub fn new(points: &[Option<SurfacePoint>]) -> PixelBatch {
         isa::run(NewBatch(points))
     }
 
     #[inline(always)]
     fn setup(points: &[Option<SurfacePoint>]) -> PixelBatch {
-        const { assert!(LANES == 4, "the setup runs on Vec4 lanes") };
+        const { assert!(LANES == 2 * HALF && HALF == 4, "two Vec4 halves") };
         // Read in place (each field gathered once across the lanes); the
         // points themselves are copied once, into the batch.
         let at = |l: usize| points.get(l).and_then(Option::as_ref);
-        let sp = [0, 1, 2, 3].map(|l| at(l).unwrap_or(&BLANK));
+        let sp: [&SurfacePoint; LANES] = std::array::from_fn(|l| at(l).unwrap_or(&BLANK));
         let active = Mask::from_fn(|l| at(l).is_some());
-        let v4 = |f: fn(&SurfacePoint) -> f32| Vec4::new(f(sp[0]), f(sp[1]), f(sp[2]), f(sp[3]));
-        let n = [v4(|s| s.n.x), v4(|s| s.n.y), v4(|s| s.n.z)];
-        let wo = [v4(|s| s.wo.x), v4(|s| s.wo.y), v4(|s| s.wo.z)];
-        let (frame, cos_v) = frames(&n, &wo);
+        let v4 = |h: usize, f: fn(&SurfacePoint) -> f32| {
+            Vec4::from_array(std::array::from_fn(|l| f(sp[HALF * h + l])))
+        };
+        let v8 = |f: fn(&SurfacePoint) -> f32| Wide::from_halves(v4(0, f), v4(1, f));
         let ks = [
-            v4(|s| s.specular.x),
-            v4(|s| s.specular.y),
-            v4(|s| s.specular.z),
-        ]
-        .map(Wide::from_vec4);
+            v8(|s| s.specular.x),
+            v8(|s| s.specular.y),
+            v8(|s| s.specular.z),
+        ];
         // `has_specular_lobe` (`Vec3::max_element`, whose compare-select
-        // `Wide::max` is) and `min_element() < 1`, on the exact `f64`
-        // values. Lobe A is wanted wherever there is a lobe (the same test).
+        // `Wide::max` is) and `min_element() < 1`. Lobe A is wanted wherever
+        // there is a lobe (the same test).
         let lobe = active.and(ks[0].max(ks[1]).max(ks[2]).gt(Wide::ZERO));
         let want_b = lobe.and(ks[0].min(ks[1]).min(ks[2]).lt(Wide::ONE));
-        // Lanes without a specular lobe (and padding) get a harmless cell
-        // (their lobes are masked off): identity matrices, unit masses, no
-        // magnitude; a normal view and alpha 1.
-        let on = BVec4A::new(lobe.lane(0), lobe.lane(1), lobe.lane(2), lobe.lane(3));
-        let roughness = v4(|s| s.roughness);
-        let mut cells = ltc::packed_table().lookup_lanes(roughness, cos_v);
-        for (l, cell) in cells.iter_mut().enumerate() {
-            if !lobe.lane(l) {
-                *cell = ltc::packed_cell(&BLANK_CELL);
+        let (f0, c0, k0) = half_setup(&sp, lobe, 0);
+        let (f1, c1, k1) = half_setup(&sp, lobe, 1);
+        let join = |a: Vec4, b: Vec4| Wide::from_halves(a, b);
+        let mut frame = [[Wide::ZERO; 3]; 3];
+        for r in 0..3 {
+            for k in 0..3 {
+                frame[r][k] = join(f0[r][k], f1[r][k]);
             }
         }
-        let cells = CellLanes::from_packed(&cells);
-        let c = cos_v.clamp(Vec4::ZERO, Vec4::ONE);
-        let view = [
-            Vec4::select(on, (Vec4::ONE - c * c).sqrt(), Vec4::ZERO),
-            Vec4::select(on, c, Vec4::ONE),
-        ];
-        // `alpha_from_roughness`.
-        let r = roughness.clamp(Vec4::ZERO, Vec4::ONE);
-        let alpha = Vec4::select(on, (r * r).max(Vec4::splat(MIN_ALPHA)), Vec4::ONE);
-
-        let ma = cells.ma().map(Wide::from_vec4);
-        let mb = cells.mb().map(Wide::from_vec4);
-        let norm = |m: &[Wide; 4]| {
-            (m[0].abs() + m[1].abs())
-                .max(m[2].abs() + m[3].abs())
-                .max(Wide::ONE)
-        };
-        let (mix, fmix) = (Wide::from_vec4(cells.mix()), Wide::from_vec4(cells.fmix()));
-        let wide3 = |v: [Vec4; 3]| v.map(Wide::from_vec4);
+        let (mut ma, mut mb) = ([Wide::ZERO; 4], [Wide::ZERO; 4]);
+        let (a0, a1, b0, b1) = (c0.ma(), c1.ma(), c0.mb(), c1.mb());
+        for k in 0..4 {
+            ma[k] = join(a0[k], a1[k]);
+            mb[k] = join(b0[k], b1[k]);
+        }
+        let (mix, fmix) = (join(c0.mix(), c1.mix()), join(c0.fmix(), c1.fmix()));
+        let sharp = lobe
+            .and(ill_conditioned(&ma))
+            .or(want_b.and(ill_conditioned(&mb)));
         PixelBatch {
             active,
-            p: wide3([v4(|s| s.p.x), v4(|s| s.p.y), v4(|s| s.p.z)]),
-            frame: frame.map(wide3),
-            kd: wide3([
-                v4(|s| s.diffuse.x),
-                v4(|s| s.diffuse.y),
-                v4(|s| s.diffuse.z),
-            ]),
+            p: [v8(|s| s.p.x), v8(|s| s.p.y), v8(|s| s.p.z)],
+            frame,
+            kd: [
+                v8(|s| s.diffuse.x),
+                v8(|s| s.diffuse.y),
+                v8(|s| s.diffuse.z),
+            ],
             ks,
             lobe,
             want_b,
-            norm_a: norm(&ma),
-            norm_b: norm(&mb),
+            sharp,
             ma,
             mb,
-            wa: (Wide::ONE - mix) / Wide::from_vec4(cells.hmass()),
+            wa: (Wide::ONE - mix) / join(c0.hmass(), c1.hmass()),
             mix,
-            wb: (Wide::ONE - fmix) / Wide::from_vec4(cells.fhmass()),
+            wb: (Wide::ONE - fmix) / join(c0.fhmass(), c1.fhmass()),
             fmix,
-            mag: Wide::from_vec4(cells.mag()),
-            fres: Wide::from_vec4(cells.fres()),
-            corr: CorrectionLanes::new(&cells, view, alpha),
+            mag: join(c0.mag(), c1.mag()),
+            fres: join(c0.fres(), c1.fres()),
+            corr: [k0, k1],
             others: Wide::ZERO,
-            sp: sp.map(|s| *s),
+            sp: std::array::from_fn(|l| *sp[l]),
         }
     }
 
     /// The luminance of `U` that other lights give each lane, for the next
     /// light's shape correction to weigh its doubt against.
     pub fn set_others(&mut self, others: [f32; LANES]) {
-        self.others = Wide::from_vec4(Vec4::from_array(others));
+        self.others = Lanes(others);
     }
 
     /// The shading point of lane `l`, if any.
     pub fn point(&self, l: usize) -> Option<&SurfacePoint> {
         self.active.lane(l).then_some(&self.sp[l])
     }
+}
+
+/// Half `h` of a batch's setup (lanes `4 h..4 h + 4`, one `Vec4`): the
+/// shading frames, the LTC cells and the correction's constants. A
+/// function, not a closure: a closure is compiled out of line at baseline,
+/// whatever instruction set its caller runs (`isa`).
+#[inline(always)]
+fn half_setup(
+    sp: &[&SurfacePoint; LANES],
+    lobe: Mask,
+    h: usize,
+) -> ([[Vec4; 3]; 3], CellLanes, CorrectionLanes) {
+    let v4 = |f: fn(&SurfacePoint) -> f32| {
+        Vec4::new(
+            f(sp[HALF * h]),
+            f(sp[HALF * h + 1]),
+            f(sp[HALF * h + 2]),
+            f(sp[HALF * h + 3]),
+        )
+    };
+    let n = [v4(|s| s.n.x), v4(|s| s.n.y), v4(|s| s.n.z)];
+    let wo = [v4(|s| s.wo.x), v4(|s| s.wo.y), v4(|s| s.wo.z)];
+    let (frame, cos_v) = frames(&n, &wo);
+    // Lanes without a specular lobe (and padding) get a harmless
+    // cell (their lobes are masked off): identity matrices, unit
+    // masses, no magnitude; a normal view and alpha 1.
+    let on = BVec4A::new(
+        lobe.lane(HALF * h),
+        lobe.lane(HALF * h + 1),
+        lobe.lane(HALF * h + 2),
+        lobe.lane(HALF * h + 3),
+    );
+    let roughness = v4(|s| s.roughness);
+    let mut cells = ltc::packed_table().lookup_lanes(roughness, cos_v);
+    for (l, cell) in cells.iter_mut().enumerate() {
+        if !lobe.lane(HALF * h + l) {
+            *cell = ltc::packed_cell(&BLANK_CELL);
+        }
+    }
+    let cells = CellLanes::from_packed(&cells);
+    let c = cos_v.clamp(Vec4::ZERO, Vec4::ONE);
+    let view = [
+        Vec4::select(on, (Vec4::ONE - c * c).sqrt(), Vec4::ZERO),
+        Vec4::select(on, c, Vec4::ONE),
+    ];
+    // `alpha_from_roughness`.
+    let r = roughness.clamp(Vec4::ZERO, Vec4::ONE);
+    let alpha = Vec4::select(on, (r * r).max(Vec4::splat(MIN_ALPHA)), Vec4::ONE);
+    let corr = CorrectionLanes::new(&cells, view, alpha);
+    (frame, cells, corr)
+}
+
+/// Largest condition number of an LTC map `M^-1` that the `f32` lanes
+/// take. The map of a sharp lobe (roughness under ~0.15) seen obliquely
+/// squeezes the plane of the view by up to 1e4 against its normal: lights
+/// become slivers between nearly opposite directions, whose contour sums
+/// `f32` cannot resolve (`ltc::image_accuracy`'s metal at 86 degrees,
+/// roughness 0.05: p95 6.3 % in `f32` against 0.8 % in `f64`). Every cell
+/// of roughness >= 0.19 stays under 150.
+pub const MAX_CONDITION: f32 = 1000.0;
+
+/// Lanes whose map `m` (m00, m02, m20, m22; the middle element 1) has a
+/// condition number above `MAX_CONDITION`, estimated from above: the 2x2
+/// block's singular values lie between `|det| / |m|_F` and `|m|_F`.
+#[inline(always)]
+fn ill_conditioned(m: &[Wide; 4]) -> Mask {
+    let frob = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2] + m[3] * m[3]).sqrt();
+    let det = m[0].mul_add(m[3], -(m[1] * m[2])).abs();
+    let hi = frob.max(Wide::ONE);
+    let lo = (det / frob.max(Wide::splat(f32::MIN_POSITIVE))).min(Wide::ONE);
+    hi.gt(Wide::splat(MAX_CONDITION) * lo)
 }
 
 /// `PixelBatch::new` as a `Kernel` (`isa`).
@@ -311,7 +377,7 @@ fn frames(n: &[Vec4; 3], wo: &[Vec4; 3]) -> ([[Vec4; 3]; 3], Vec4) {
     let mut x = [t[0] / len, t[1] / len, t[2] / len];
     // As the scalar rule: `l2 > 1e-12` or the fallback (NaN included).
     let tangent = l2.cmpgt(Vec4::splat(1e-12));
-    for l in 0..LANES {
+    for l in 0..HALF {
         if !tangent.test(l) {
             let f = Vec3::new(n[0][l], n[1][l], n[2][l]).any_orthonormal_vector();
             (x[0][l], x[1][l], x[2][l]) = (f.x, f.y, f.z);
@@ -423,7 +489,7 @@ fn count(m: Mask) -> u64 {
 }
 
 #[inline(always)]
-fn splat3(v: [impl Into<BatchFloat> + Copy; 3]) -> Wide3 {
+fn splat3(v: [BatchFloat; 3]) -> Wide3 {
     [Wide::splat(v[0]), Wide::splat(v[1]), Wide::splat(v[2])]
 }
 
@@ -435,7 +501,10 @@ fn rotate(frame: &[Wide3; 3], d: &Wide3) -> Wide3 {
 
 /// The LTC image `M^-1 v` (m = m00, m02, m20, m22).
 #[inline(always)]
-pub(super) fn ltc_map(m: &[Wide; 4], v: &Wide3) -> Wide3 {
+pub(super) fn ltc_map<T: Elem, const L: usize>(
+    m: &[Lanes<T, L>; 4],
+    v: &Vec3Lanes<T, L>,
+) -> Vec3Lanes<T, L> {
     [
         m[0].mul_add(v[0], m[1] * v[2]),
         v[1],
@@ -443,34 +512,21 @@ pub(super) fn ltc_map(m: &[Wide; 4], v: &Wide3) -> Wide3 {
     ]
 }
 
-/// `|v|` per lane, at least the smallest normal number (so that `1 / |v|`
-/// of a zero vector stays finite: its edges add 0).
-#[inline(always)]
-fn length(v: &Wide3) -> Wide {
-    dot(v, v).max(Wide::splat(BatchFloat::MIN_POSITIVE)).sqrt()
-}
-
-/// `1 / |v|` per lane (see `length`).
+/// `1 / |v|` per lane, at least the smallest normal number under the root
+/// (so that a zero vector stays finite: its edges add 0).
 #[inline(always)]
 fn inv_len(v: &Wide3) -> Wide {
-    Wide::ONE / length(v)
+    Wide::ONE / dot(v, v).max(Wide::splat(BatchFloat::MIN_POSITIVE)).sqrt()
 }
 
-/// Its relative error bound (`polygon::theta_over_sin_pos`, degree 10,
-/// 2.1e-9), carried into each lane's error bound.
-const POLY_ERR_F64: BatchFloat = 3e-9;
-
-/// `polygon::THETA_SIN_POLY` in every lane, as whole vectors. (Meant to let
-/// the multiply-adds read them from memory; the instruction profile
-/// (`u_profile` under callgrind) shows LLVM still broadcasts each one before
-/// use, and copies of them as
-/// run-time data traded those broadcasts for more register moves.)
+/// `polygon::THETA_SIN_POLY` in every lane, as whole vectors, rounded to
+/// `f32` (its relative error, 2.1e-9 as a polynomial, is then a few ulps).
 static THETA_SIN_WIDE: [Wide; 11] = {
     let p = super::polygon::THETA_SIN_POLY;
     let mut w = [Wide::ZERO; 11];
     let mut i = 0;
     while i < 11 {
-        w[i] = super::lanes::Lanes([p[i]; super::lanes::LANES]);
+        w[i] = Lanes([p[i] as f32; LANES]);
         i += 1;
     }
     w
@@ -484,37 +540,51 @@ fn theta_over_sin_pos(x: Wide) -> Wide {
 }
 
 /// `theta / sin(theta)` for x in [-1, 1] (already clamped): below 0,
-/// `pi / sin - theta' / sin`, as `polygon::theta_over_sin`.
+/// `pi / sin - theta' / sin`, as `polygon::theta_over_sin` (sin(theta)
+/// from the cosine, well conditioned there but for antipodal vertices,
+/// whose cross product vanishes with it).
 #[inline(always)]
-fn theta_over_sin(x: Wide) -> Wide {
+fn theta_over_sin(x: Wide, sin: Wide) -> Wide {
     let p = theta_over_sin_pos(x.abs());
-    let s = ((Wide::ONE - x) * (Wide::ONE + x))
-        .max(Wide::splat(1e-30))
-        .sqrt();
+    let s = sin.max(Wide::splat(1e-30));
     let far = Wide::splat(std::f64::consts::PI) / s - p;
     x.ge(Wide::ZERO).select(p, far)
 }
 
 /// One edge from `a` (inverse length `ia`) along `e` to `b` (inverse length
-/// `ib`): its cosine (clamped), its `z . (a x b) / (|a| |b|)` and the
-/// magnitude its rounding error scales with.
+/// `ib`): its cosine (clamped) and `z . (a x b) / (|a| |b|)`, the vector
+/// form factor's z (computed as `a x (b - a)`: no cancellation between
+/// near-equal vertices).
 #[inline(always)]
-fn edge_parts(a: &Wide3, b: &Wide3, e: &Wide3, ia: Wide, ib: Wide) -> (Wide, Wide, Wide) {
+fn edge_parts(a: &Wide3, b: &Wide3, e: &Wide3, ia: Wide, ib: Wide) -> (Wide, Wide) {
     let w = ia * ib;
     let d = (dot(a, b) * w).clamp(-1.0, 1.0);
-    // (a x b).z = (a x (b - a)).z: no cancellation between near-equal vertices.
     let cz = a[0].mul_add(e[1], -(a[1] * e[0])) * w;
-    let size = (e[0].abs() + e[1].abs() + e[2].abs()) * ib;
-    (d, cz, size)
+    (d, cz)
 }
 
 /// A polygon's edges as a contour sum reads them: edge `i` as (cosine,
-/// cz, size) (`edge_parts`). A trait with always-inlined methods rather
-/// than a closure: LLVM stopped inlining the closures once the function
-/// around them grew, and each call then cost a spill of everything live.
+/// cz) (`edge_parts`). A trait with always-inlined methods rather than a
+/// closure: LLVM stopped inlining the closures once the function around
+/// them grew, and each call then cost a spill of everything live.
 trait Edges {
     fn count(&self) -> usize;
-    fn edge(&self, i: usize) -> (Wide, Wide, Wide);
+    fn edge(&self, i: usize) -> (Wide, Wide);
+    /// The edge's sine, `|a x b| / (|a| |b|)`, for edges wider than 90
+    /// degrees: from the cross product, which keeps `eps / sin` of it,
+    /// where `sqrt(1 - cos^2)` keeps only `eps / sin^2`.
+    fn sin(&self, i: usize) -> Wide;
+}
+
+/// `|a x e| w`: the sine of the edge from `a` along `e`, with `w = 1 / (|a| |b|)`.
+#[inline(always)]
+fn edge_sin(a: &Wide3, e: &Wide3, w: Wide) -> Wide {
+    let c = [
+        a[1].mul_add(e[2], -(a[2] * e[1])),
+        a[2].mul_add(e[0], -(a[0] * e[2])),
+        a[0].mul_add(e[1], -(a[1] * e[0])),
+    ];
+    dot(&c, &c).sqrt() * w
 }
 
 /// Unclipped polygon: vertices `q`, exact edge vectors `e`, inverse vertex
@@ -531,82 +601,95 @@ impl<const N: usize> Edges for Unclipped<'_, N> {
         slots::<N>(self.q.len())
     }
     #[inline(always)]
-    fn edge(&self, i: usize) -> (Wide, Wide, Wide) {
+    fn edge(&self, i: usize) -> (Wide, Wide) {
         let j = if i + 1 == self.count() { 0 } else { i + 1 };
         edge_parts(&self.q[i], &self.q[j], &self.e[i], self.inv[i], self.inv[j])
     }
+    #[inline(always)]
+    fn sin(&self, i: usize) -> Wide {
+        let j = if i + 1 == self.count() { 0 } else { i + 1 };
+        edge_sin(&self.q[i], &self.e[i], self.inv[i] * self.inv[j])
+    }
 }
 
-/// Edges already made: (cosines, cz, sizes).
+/// Edges already made: (cosines, cz, sines).
 impl Edges for (&[Wide], &[Wide], &[Wide]) {
     #[inline(always)]
     fn count(&self) -> usize {
         self.0.len()
     }
     #[inline(always)]
-    fn edge(&self, i: usize) -> (Wide, Wide, Wide) {
-        (self.0[i], self.1[i], self.2[i])
+    fn edge(&self, i: usize) -> (Wide, Wide) {
+        (self.0[i], self.1[i])
+    }
+    #[inline(always)]
+    fn sin(&self, i: usize) -> Wide {
+        self.2[i]
     }
 }
 
-/// `sum theta/sin(theta) cz` and `sum theta/sin(theta) size` over the
-/// edges, each edge's terms added as soon as they are made (no arrays of
-/// them live at once). The `pi / sin` branch of theta/sin is needed only
+/// The cosine below which an edge is too wide for `f32`: near 180 degrees
+/// theta / sin(theta) grows as `1 / sin`, and `sin` from the cosine of two
+/// nearly opposite `f32` directions keeps only `eps / (1 + cos)` of itself
+/// (on a light covering most of the hemisphere the Lambert lobe was off by
+/// 1.7 %). Edges this wide (> 177.4 degrees) are met only by points within a
+/// few percent of a light's size from its edge lines; their lanes take the
+/// scalar path.
+const WIDEST_COS: BatchFloat = -0.999;
+
+/// `sum theta/sin(theta) (a x b).z` over the edges (the vector form
+/// factor's z), each edge's term added as soon as it is made (no arrays of
+/// them live at once), and the lanes of `live` with an edge wider than
+/// `WIDEST_COS` allows. The `pi / sin` branch of theta/sin is needed only
 /// when some lane that counts (`live`) has an edge wider than 90 degrees
 /// (rare: very wide polygons); then the edges are made again and summed
 /// with it.
 #[inline(always)]
-fn sum_terms(edges: &impl Edges, live: Mask) -> (Wide, Wide) {
+fn sum_terms(edges: &impl Edges, live: Mask) -> (Wide, Mask) {
     let mut wide = Mask::NONE;
     let mut sum = Wide::ZERO;
-    let mut bound = Wide::ZERO;
     for i in 0..edges.count() {
-        let (d, cz, size) = edges.edge(i);
+        let (d, cz) = edges.edge(i);
         wide = wide.or(d.lt(Wide::ZERO));
-        let t = theta_over_sin_pos(d);
-        sum = t.mul_add(cz, sum);
-        bound = t.mul_add(size, bound);
+        sum = theta_over_sin_pos(d).mul_add(cz, sum);
     }
+    let mut widest = Mask::NONE;
     if wide.and(live).any() {
-        (sum, bound) = (Wide::ZERO, Wide::ZERO);
+        sum = Wide::ZERO;
         for i in 0..edges.count() {
-            let (d, cz, size) = edges.edge(i);
-            let t = theta_over_sin(d);
-            sum = t.mul_add(cz, sum);
-            bound = t.mul_add(size, bound);
+            let (d, cz) = edges.edge(i);
+            widest = widest.or(d.lt(Wide::splat(WIDEST_COS)));
+            sum = theta_over_sin(d, edges.sin(i)).mul_add(cz, sum);
         }
     }
-    (sum, bound)
+    (sum, widest.and(live))
 }
 
 /// The Lambert contour sum of the local polygon (`q` vertices, `e` edges;
-/// no vertex below the horizon in the lanes that count), its error bound,
-/// the vertex lengths and the unit vertices (which feed the shape
-/// correction).
+/// no vertex below the horizon in the lanes that count) and the unit
+/// vertices (which feed the shape correction).
 #[inline(always)]
 fn lambert_sum<const N: usize>(
     q: &[Wide3],
     e: &[Wide3],
     live: Mask,
-) -> (Wide, Wide, [Wide; SLOTS], [Wide3; SLOTS]) {
+) -> (Wide, [Wide3; SLOTS], Mask) {
     let n = slots::<N>(q.len());
-    let mut len = [Wide::ZERO; SLOTS];
     let mut inv = [Wide::ZERO; SLOTS];
     for i in 0..n {
-        len[i] = length(&q[i]);
-        inv[i] = Wide::ONE / len[i];
+        inv[i] = inv_len(&q[i]);
     }
     let edges = Unclipped::<N> {
         q,
         e,
         inv: &inv[..n],
     };
-    let (sum, bound) = sum_terms(&edges, live);
+    let (sum, widest) = sum_terms(&edges, live);
     let mut u = [[Wide::ZERO; 3]; SLOTS];
     for i in 0..n {
         u[i] = [q[i][0] * inv[i], q[i][1] * inv[i], q[i][2] * inv[i]];
     }
-    (sum, bound, len, u)
+    (sum, u, widest)
 }
 
 /// The mean of three channels.
@@ -615,56 +698,41 @@ fn mean3(v: &[Wide; 3]) -> Wide {
     (v[0] + v[1] + v[2]) * Wide::splat(1.0 / 3.0)
 }
 
-/// `ltc_sum` as a `Kernel` (`isa`): out of line, where LLVM put it in
-/// `shade` before, and at the batch's instruction set.
+/// `ltc_sum` as a `Kernel` (`isa`): out of line, at the batch's
+/// instruction set.
 struct LtcSum<'a, const N: usize> {
     m: &'a [Wide; 4],
-    norm: Wide,
     q: &'a [Wide3],
     e: &'a [Wide3],
-    len_l: &'a [Wide],
     live: Mask,
 }
 
 impl<const N: usize> Kernel for LtcSum<'_, N> {
-    type Out = (Wide, Wide, Wide);
+    type Out = (Wide, Mask);
     #[inline(always)]
-    fn run(self) -> (Wide, Wide, Wide) {
-        ltc_sum::<N>(self.m, self.norm, self.q, self.e, self.len_l, self.live)
+    fn run(self) -> (Wide, Mask) {
+        ltc_sum::<N>(self.m, self.q, self.e, self.live)
     }
 }
 
 /// Contour sum of one LTC image (`m` applied to the local polygon), clipped
-/// to its horizon where a lane that counts dips below it; its error bound;
-/// and the factor by which the image magnifies the local rounding.
+/// to its horizon where a lane that counts dips below it, and the lanes
+/// with an edge too wide for `f32` (`sum_terms`).
 #[inline(always)]
-fn ltc_sum<const N: usize>(
-    m: &[Wide; 4],
-    norm: Wide,
-    q: &[Wide3],
-    e: &[Wide3],
-    len_l: &[Wide],
-    live: Mask,
-) -> (Wide, Wide, Wide) {
+fn ltc_sum<const N: usize>(m: &[Wide; 4], q: &[Wide3], e: &[Wide3], live: Mask) -> (Wide, Mask) {
     let n = slots::<N>(q.len());
     let mut qi = [[Wide::ZERO; 3]; SLOTS];
     let mut ei = [[Wide::ZERO; 3]; SLOTS];
-    let mut len = [Wide::ZERO; SLOTS];
     let mut inv = [Wide::ZERO; SLOTS];
+    let mut clips = Mask::NONE;
     for i in 0..n {
         qi[i] = ltc_map(m, &q[i]);
         ei[i] = ltc_map(m, &e[i]);
-        len[i] = length(&qi[i]);
-        inv[i] = Wide::ONE / len[i];
-    }
-    let mut gain = Wide::ZERO;
-    let mut clips = Mask::NONE;
-    for i in 0..n {
-        gain = gain.max(inv[i] * len_l[i]);
+        inv[i] = inv_len(&qi[i]);
         clips = clips.or(qi[i][2].lt(Wide::ZERO));
     }
-    let (sum, bound) = if clips.and(live).any() {
-        clipped_sum::<N>(&qi[..n], &ei[..n], &len[..n], &inv[..n], live)
+    if clips.and(live).any() {
+        clipped_sum::<N>(&qi[..n], &ei[..n], &inv[..n], live)
     } else {
         let edges = Unclipped::<N> {
             q: &qi[..n],
@@ -672,8 +740,7 @@ fn ltc_sum<const N: usize>(
             inv: &inv[..n],
         };
         sum_terms(&edges, live)
-    };
-    (sum, bound, gain * norm)
+    }
 }
 
 /// The contour sum of the polygon clipped to z >= 0, lane by lane without
@@ -694,18 +761,16 @@ fn ltc_sum<const N: usize>(
 fn clipped_sum<const N: usize>(
     q: &[Wide3],
     e: &[Wide3],
-    len: &[Wide],
     inv_v: &[Wide],
     live: Mask,
-) -> (Wide, Wide) {
+) -> (Wide, Mask) {
     let n = slots::<N>(q.len());
     let zero = Wide::ZERO;
     let mut dots = [zero; SLOTS];
     let mut cz = [zero; SLOTS];
-    let mut size = [zero; SLOTS];
+    let mut sines = [zero; SLOTS];
     let mut exit = [zero; 3];
     let mut entry = [zero; 3];
-    let mut crossed = Mask::NONE;
     for i in 0..n {
         let j = if i + 1 == n { 0 } else { i + 1 };
         let (a, b, ev) = (&q[i], &q[j], &e[i]);
@@ -739,26 +804,21 @@ fn clipped_sum<const N: usize>(
         ];
         let w = i0 * i1;
         dots[i] = (dot(&start, &end) * w).clamp(-1.0, 1.0);
-        let kw = k * w;
-        cz[i] = a[0].mul_add(ev[1], -(a[1] * ev[0])) * kw;
-        // Rounding of `(a x e).z` scales with |a| |e|.
-        size[i] = (ev[0].abs() + ev[1].abs() + ev[2].abs()) * len[i] * kw;
+        cz[i] = a[0].mul_add(ev[1], -(a[1] * ev[0])) * (k * w);
+        sines[i] = edge_sin(a, ev, k * w);
         for c in 0..2 {
             exit[c] = leaving.select(x[c], exit[c]);
             entry[c] = arriving.select(x[c], entry[c]);
         }
-        crossed = crossed.or(leaving);
     }
-    let (sum, bound) = sum_terms(&(&dots[..n], &cz[..n], &size[..n]), live);
+    let (sum, widest) = sum_terms(&(&dots[..n], &cz[..n], &sines[..n]), live);
     // The horizon edge (exit = entry = 0 where nothing crossed: adds 0).
-    // Its vector is a difference of two rounded crossings: two more ulps
-    // of the edge's own scale in its bound.
     let (ex, en) = (inv_len(&exit), inv_len(&entry));
     let along = [entry[0] - exit[0], entry[1] - exit[1], entry[2] - exit[2]];
-    let (d, c, s) = edge_parts(&exit, &entry, &along, ex, en);
-    let s = crossed.select(s + Wide::splat(2.0), zero);
-    let (hsum, hbound) = sum_terms(&(&[d][..], &[c][..], &[s][..]), live);
-    (sum + hsum, bound + hbound)
+    let (d, cz) = edge_parts(&exit, &entry, &along, ex, en);
+    let sin = edge_sin(&exit, &along, ex * en);
+    let (horizon, widest_h) = sum_terms(&(&[d][..], &[cz][..], &[sin][..]), live);
+    (sum + horizon, widest.or(widest_h))
 }
 
 /// `min(|sum| / 2π, 1)`: a contour sum as the form factor of its polygon.
@@ -769,14 +829,12 @@ fn form_factor(sum: Wide) -> Wide {
 
 /// The local polygon clipped to the horizon, `k` (= n + 1) slots per lane,
 /// as `polygon::clip_upper_into` makes it: vertices `q`, the vector `e`
-/// from each to the next, `real` (false for the slots that pad a lane's
-/// polygon: repeats of its first vertex, whose edges add exactly 0), and
-/// `slack`, what the crossings add to each lane's rounding bound.
+/// from each to the next, and `real` (false for the slots that pad a
+/// lane's polygon: repeats of its first vertex, whose edges add exactly 0).
 struct Clipped {
     q: [Wide3; SLOTS],
     e: [Wide3; SLOTS],
     real: [Mask; SLOTS],
-    slack: Wide,
     /// Slots in use: the light's vertex count plus one.
     k: usize,
 }
@@ -792,7 +850,6 @@ fn clip_lanes(q: &[Wide3], e: &[Wide3], straddle: Mask) -> (Clipped, Mask) {
         q: [[Wide::ZERO; 3]; SLOTS],
         e: [[Wide::ZERO; 3]; SLOTS],
         real: [Mask::from_fn(|_| true); SLOTS],
-        slack: Wide::ZERO,
         k: n + 1,
     };
     c.q[..n].copy_from_slice(q);
@@ -809,26 +866,18 @@ fn clip_lanes(q: &[Wide3], e: &[Wide3], straddle: Mask) -> (Clipped, Mask) {
 }
 
 /// Lane `l` of `q`, `e` clipped to z >= 0 into the slots of `out`, in
-/// `clip_upper_into`'s order and with its crossings (`a + t e`, z set to 0).
-/// Each slot's edge vector is, where one is known, an exact edge's (or its
-/// share `t e`, `(1 - t) e` of it), so edge terms keep their precision; the
-/// edge along the horizon is the difference of its two crossings.
-///
-/// `slack` bounds what this adds to the error of a contour sum over the
-/// polygon. Rounding moves a crossing by a few ulps of `|a| + |e|`, its
-/// direction by that over `|x|`, and each of its two edges' terms by at
-/// most `1 + theta / sin` (< 4 below 120 degrees) times that; the horizon
-/// edge's difference of crossings errs by an ulp of their lengths. False
-/// if the polygon has more crossings than a convex one (rounding of a
-/// near-degenerate light).
+/// `clip_upper_into`'s order and with its crossings (`a + t e`, z set to 0),
+/// in `f64`. Each slot's edge vector is, where one is known, an exact
+/// edge's (or its share `t e`, `(1 - t) e` of it), so edge terms keep their
+/// precision; the edge along the horizon is the difference of its two
+/// crossings. False if the polygon has more crossings than a convex one
+/// (rounding of a near-degenerate light).
 #[inline(never)]
 fn clip_lane(q: &[Wide3], e: &[Wide3], l: usize, out: &mut Clipped) -> bool {
     let (n, slots) = (q.len(), out.k);
-    let at = |v: &Wide3| DVec3::new(v[0].0[l], v[1].0[l], v[2].0[l]);
-    let norm1 = |v: DVec3| v.abs().element_sum();
+    let at = |v: &Wide3| DVec3::new(v[0].0[l].into(), v[1].0[l].into(), v[2].0[l].into());
     let mut pts = [DVec3::ZERO; SLOTS];
     let mut next: [Option<DVec3>; SLOTS] = [None; SLOTS];
-    let mut slack = 0.0;
     let mut k = 0;
     for i in 0..n {
         let j = if i + 1 == n { 0 } else { i + 1 };
@@ -854,8 +903,6 @@ fn clip_lane(q: &[Wide3], e: &[Wide3], l: usize, out: &mut Clipped) -> bool {
             } else {
                 next[k] = Some(ev * (-b.z / den));
             }
-            slack += 32.0 * BatchFloat::EPSILON * (norm1(a) + norm1(ev))
-                / x.length().max(f64::MIN_POSITIVE);
             pts[k] = x;
             k += 1;
         }
@@ -866,22 +913,16 @@ fn clip_lane(q: &[Wide3], e: &[Wide3], l: usize, out: &mut Clipped) -> bool {
     for s in 0..slots {
         let (p, ev, real) = if s < k {
             let to = pts[if s + 1 == k { 0 } else { s + 1 }];
-            let ev = next[s].unwrap_or_else(|| {
-                slack += 4.0 * BatchFloat::EPSILON * (norm1(pts[s]) + norm1(to))
-                    / to.length().max(f64::MIN_POSITIVE);
-                to - pts[s]
-            });
-            (pts[s], ev, true)
+            (pts[s], next[s].unwrap_or(to - pts[s]), true)
         } else {
             (pts[0], DVec3::ZERO, false)
         };
         for c in 0..3 {
-            out.q[s][c].0[l] = p[c];
-            out.e[s][c].0[l] = ev[c];
+            out.q[s][c].0[l] = p[c] as BatchFloat;
+            out.e[s][c].0[l] = ev[c] as BatchFloat;
         }
         out.real[s].0[l] = if real { !0 } else { 0 };
     }
-    out.slack.0[l] = slack;
     true
 }
 
@@ -928,7 +969,9 @@ fn lobes_n<const N: usize, const K: usize>(
         max_z = max_z.max(q[i][2]);
     }
     let under = max_z.le(Wide::ZERO);
-    let mut hard = go.and(near);
+    // An ill-conditioned LTC map matters only where the GGX lobe is wanted.
+    let sharp = if specular { b.sharp } else { Mask::NONE };
+    let mut hard = go.and(near.or(sharp));
     let fast = go.and_not(hard).and_not(under);
     let straddle = fast.and(min_z.lt(Wide::ZERO));
 
@@ -963,7 +1006,7 @@ fn lobes_n<const N: usize, const K: usize>(
     if hard.any() {
         for l in 0..LANES {
             if hard.lane(l) {
-                let (d, s) = unshadowed_lobes_among(&b.sp[l], &light.scalar, b.others.0[l] as f32);
+                let (d, s) = unshadowed_lobes_among(&b.sp[l], &light.scalar, b.others.0[l]);
                 out.set_lane(l, (d, if specular { s } else { Vec3::ZERO }));
                 counts.scalar += 1;
             }
@@ -1027,7 +1070,7 @@ fn shade_clipped<const N: usize, const K: usize>(
         specular,
         &c.q[..k],
         &c.e[..k],
-        Some((&c.real[..k], c.slack)),
+        Some(&c.real[..k]),
         fast,
         out,
     ))
@@ -1035,9 +1078,9 @@ fn shade_clipped<const N: usize, const K: usize>(
 
 /// The lobes of the lanes of `fast` into `out`, from their local polygon
 /// (`q`, `e`: above the horizon in those lanes; for a clipped polygon,
-/// which slots are real and the slack of each lane's rounding bound, as in
-/// `Clipped`). Returns the lanes whose rounding bound exceeds `REL_TOL` (or
-/// whose value is not finite): the caller sends them to the scalar path.
+/// which slots are real, as in `Clipped`). Returns the lanes whose value
+/// is not finite or whose polygon has an edge too wide for `f32`
+/// (`WIDEST_COS`): the caller sends them to the scalar path.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn shade<const N: usize>(
@@ -1046,51 +1089,40 @@ fn shade<const N: usize>(
     specular: bool,
     q: &[Wide3],
     e: &[Wide3],
-    clipped: Option<(&[Mask], Wide)>,
+    real: Option<&[Mask]>,
     fast: Mask,
     out: &mut LaneLobes,
 ) -> Mask {
-    let eps = Wide::splat(ERR_ULPS * BatchFloat::EPSILON * 0.5 + POLY_ERR_F64);
     let k = slots::<N>(q.len());
-    let (sum_l, bnd_l, len_l, u) = lambert_sum::<N>(q, e, fast);
-    // A contour sum's error: `eps` of its bound, plus the clip's slack.
+    let (sum_l, u, mut widest) = lambert_sum::<N>(q, e, fast);
     // (Plain code, no closures here: a closure is compiled out of line at
     // baseline, whatever instruction set its caller runs; `isa`.)
-    let (real, slack): (Option<&[Mask]>, Wide) = match clipped {
-        Some((real, slack)) => (Some(real), slack),
-        None => (None, Wide::ZERO),
-    };
     let ff = form_factor(sum_l);
-    let err_l = eps.mul_add(bnd_l, slack) * Wide::splat(0.5 / std::f64::consts::PI);
     let mut spec = [Wide::ZERO; 3];
-    let mut spec_err = [Wide::ZERO; 3];
     let lobe = if specular {
         fast.and(b.lobe)
     } else {
         Mask::NONE
     };
     if lobe.any() {
-        let (sum_a, bnd_a, gain_a) = isa::run(LtcSum::<N> {
+        let (sum_a, widest_a) = isa::run(LtcSum::<N> {
             m: &b.ma,
-            norm: b.norm_a,
             q,
             e,
-            len_l: &len_l[..k],
             live: lobe,
         });
         let want_b = lobe.and(b.want_b);
-        let (sum_b, bnd_b, gain_b) = if want_b.any() {
+        let (sum_b, widest_b) = if want_b.any() {
             isa::run(LtcSum::<N> {
                 m: &b.mb,
-                norm: b.norm_b,
                 q,
                 e,
-                len_l: &len_l[..k],
                 live: want_b,
             })
         } else {
-            (Wide::ZERO, Wide::ZERO, Wide::ZERO)
+            (Wide::ZERO, Mask::NONE)
         };
+        widest = widest.or(widest_a).or(widest_b);
         let share_a = b.wa.mul_add(form_factor(sum_a), b.mix * ff);
         let share_b = b.wb.mul_add(form_factor(sum_b), b.fmix * ff);
         let one_less = [
@@ -1098,61 +1130,88 @@ fn shade<const N: usize>(
             Wide::ONE - b.ks[1],
             Wide::ONE - b.ks[2],
         ];
-        let stakes = Stakes {
-            a: b.lobe.select(b.mag * share_a * mean3(&b.ks), Wide::ZERO),
-            b: b.want_b
+        let stakes = [
+            b.lobe.select(b.mag * share_a * mean3(&b.ks), Wide::ZERO),
+            b.want_b
                 .select(b.fres * share_b * mean3(&one_less), Wide::ZERO),
-            diffuse: mean3(&b.kd) * ff,
-            others: b.others / Wide::splat(BatchFloat::from(luminance(light.radiance)).max(1e-30)),
-        };
-        let (ka, kb) = lobe_factors_lanes(&u[..k], real, &b.corr, share_a, share_b, &stakes);
-        let err_a = eps.mul_add(bnd_a, slack) * gain_a * Wide::splat(0.5 / std::f64::consts::PI);
-        let err_b = eps.mul_add(bnd_b, slack) * gain_b * Wide::splat(0.5 / std::f64::consts::PI);
+            mean3(&b.kd) * ff,
+            // What the lights shaded before this one give each pixel, in
+            // this light's units (its radiance's luminance divided out).
+            b.others / Wide::splat(luminance(light.radiance).max(1e-30)),
+        ];
+        let (ka, kb) = correction(&u[..k], real, b, [share_a, share_b], &stakes, lobe);
         let a = b.lobe.select(b.mag * share_a * ka, Wide::ZERO);
         let bb = b.want_b.select(b.fres * share_b * kb, Wide::ZERO);
-        let a_err = b
-            .lobe
-            .select(b.mag * ka * b.wa.mul_add(err_a, b.mix * err_l), Wide::ZERO);
-        let b_err = b.want_b.select(
-            b.fres * kb * b.wb.mul_add(err_b, b.fmix * err_l),
-            Wide::ZERO,
-        );
-        for c in 0..3 {
-            let ks = b.ks[c];
-            let s = ks.mul_add(a, (Wide::ONE - ks) * bb);
-            let s_err = ks.mul_add(a_err, (Wide::ONE - ks) * b_err);
-            spec[c] = b.lobe.select(s, Wide::ZERO);
-            spec_err[c] = b.lobe.select(s_err, Wide::ZERO);
+        for (s, &ks) in spec.iter_mut().zip(&b.ks) {
+            *s = b
+                .lobe
+                .select(ks.mul_add(a, (Wide::ONE - ks) * bb), Wide::ZERO);
         }
     }
-    // The Lambert lobe to `REL_TOL` of itself (the form factor keeps its
-    // accuracy), this light's U to `REL_TOL` of the pixel's whole U (what
-    // the lights shaded before it give the pixel included) in every
-    // channel: a lobe tiny against the pixel needs no precision of its own.
-    let tol = Wide::splat(REL_TOL);
-    let mut doubt = err_l.gt(tol * ff);
+    let mut bad = widest;
     let rad = light.radiance.to_array();
     for c in 0..3 {
         let d = b.kd[c] * ff;
-        let total = d + spec[c];
-        // The other lights' luminance in this light's units for channel
-        // `c` (a channel this light does not emit in has nothing to doubt).
-        let scale = if rad[c] > 0.0 {
-            1.0 / BatchFloat::from(rad[c])
-        } else {
-            0.0
-        };
-        let whole = b.others.mul_add(Wide::splat(scale), total);
-        doubt = doubt
-            .or(b.kd[c].mul_add(err_l, spec_err[c]).gt(tol * whole))
-            .or(total.finite().invert());
+        bad = bad.or((d + spec[c]).finite().invert());
         let r = Wide::splat(rad[c]);
         out.diffuse[c] = fast.select((d * r).max(Wide::ZERO), Wide::ZERO).to_f32();
         out.specular[c] = fast
             .select((spec[c] * r).max(Wide::ZERO), Wide::ZERO)
             .to_f32();
     }
-    fast.and(doubt)
+    fast.and(bad)
+}
+
+/// The shape correction's factors `(A, B)` of every lane, each half batch
+/// through `lobe_factors_lanes` (four pixels, the fan in `f64`); a half
+/// with no lane of `lobe` is left at 1. `u`, `real`: the unit polygon
+/// and its real slots as `shade` has them; `stakes`: lobe A, lobe B, the
+/// diffuse part and the other lights (`Stakes`).
+#[inline(always)]
+fn correction(
+    u: &[Wide3],
+    real: Option<&[Mask]>,
+    b: &PixelBatch,
+    [share_a, share_b]: [Wide; 2],
+    stakes: &[Wide; 4],
+    lobe: Mask,
+) -> (Wide, Wide) {
+    let k = u.len();
+    let (mut ka, mut kb) = (Wide::ONE, Wide::ONE);
+    for h in 0..2 {
+        if !lobe.half(h).any() {
+            continue;
+        }
+        let mut uh: [Quad3; SLOTS] = [[Quad::ZERO; 3]; SLOTS];
+        let mut rh = [QuadMask::NONE; SLOTS];
+        for i in 0..k {
+            for c in 0..3 {
+                uh[i][c] = u[i][c].half(h);
+            }
+            if let Some(real) = real {
+                rh[i] = real[i].half(h);
+            }
+        }
+        let st = Stakes {
+            a: stakes[0].half(h),
+            b: stakes[1].half(h),
+            diffuse: stakes[2].half(h),
+            others: stakes[3].half(h),
+        };
+        let (a, bb) = lobe_factors_lanes(
+            &uh[..k],
+            real.map(|_| &rh[..k]),
+            &b.corr[h],
+            share_a.half(h),
+            share_b.half(h),
+            &st,
+        );
+        for l in 0..HALF {
+            ka.0[HALF * h + l] = a.0[l] as BatchFloat;
+            kb.0[HALF * h + l] = bb.0[l] as BatchFloat;
+        }
+    }
+    (ka, kb)
 }
 
 #[cfg(test)]
@@ -1175,7 +1234,7 @@ mod tests {
             (n(0.3, 0.3), Vec3::new(0.0, 1.0, 0.0)),
             (n(-0.6, 0.1), Vec3::new(0.2, -0.1, 0.97).normalize()),
         ];
-        for group in cases.chunks(LANES) {
+        for group in cases.chunks(HALF) {
             let v4 = |f: &dyn Fn(usize) -> f32| Vec4::from_array(std::array::from_fn(f));
             let ns = [0, 1, 2].map(|k| v4(&|l| group[l].0[k]));
             let wos = [0, 1, 2].map(|k| v4(&|l| group[l].1[k]));
