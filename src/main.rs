@@ -274,6 +274,10 @@ struct CompareArgs {
     /// Exit 1 when mean FLIP is above this.
     #[arg(long, value_name = "Y")]
     max_flip: Option<f64>,
+    /// The frame's depth AOV (`render --aov depth`): speckles are counted
+    /// away from its geometric edges (without it, where the reference is smooth).
+    #[arg(long, value_name = "FILE.exr")]
+    depth: Option<PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -546,7 +550,13 @@ fn cmd_compare(a: CompareArgs) -> ExitCode {
         }
         let test = Image::load(&a.test)?;
         let reference = Image::load(&a.reference)?;
-        let c = compare::compare(&test, &reference)?;
+        let mut c = compare::compare(&test, &reference)?;
+        if let Some(path) = &a.depth {
+            let depth = Image::load(path)?;
+            let mask = compare::away_from_depth_edges(&depth, &reference)?;
+            c.speckles =
+                compare::speckles(test.width, &test.pixels, &reference.pixels, Some(&mask));
+        }
         print!("{}", compare::format(&c));
         if let Some(path) = &a.heatmap {
             compare::write_heatmap(&test, &reference, path)?;
