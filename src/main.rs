@@ -403,13 +403,14 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             String::new()
         };
         eprintln!(
-            "{}x{}{scaled} {} spp={} frames={}: last frame {:.1} ms",
+            "{}x{}{scaled} {} spp={} frames={}: last frame {:.1} ms (denoiser {:.2} ms)",
             w,
             h,
             c.mode,
             settings.spp,
             a.frames,
-            t.wall * 1e3
+            t.wall * 1e3,
+            t.denoise * 1e3
         );
     }
     for p in written {
