@@ -6,7 +6,7 @@ BIN := target/release/penumbra
 # `penumbra bench --plot`; valgrind: `make memcheck`; the build needs neither).
 APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 
-.PHONY: run test test-embree4 deps build lint bench bench-quick profile fit-ltc clean fuzz memcheck longrun golden-bless
+.PHONY: run test test-embree4 deps build lint bench bench-quick profile fit-ltc clean fuzz memcheck longrun golden-bless peer-denoise
 
 # No target CPU is forced: one build runs on any x86-64 CPU, and its hot
 # loops pick AVX-512, AVX2 or baseline at run time (crates/isa/src/lib.rs;
@@ -76,6 +76,19 @@ profile: build
 	  --threads 1 --frames $(PROFILE_FRAMES) --orbit 1 --out target/profile/frame.exr
 	scripts/profile.py target/profile/callgrind.out $$(($(PROFILE_WIDTH) * $(PROFILE_HEIGHT))) \
 	  $(PROFILE_FRAMES) --json target/profile/profile.json
+
+# The denoiser beside Open Image Denoise on penumbra's own raw 1-spp frames
+# (albedo and normal AOVs as its guides): relMSE, speckles and ms on room,
+# shadow-plane and the built-in scene, first frame, after a camera cut and
+# after 16 frames (docs/first-frame.md). OIDN comes from PyPI (pyoidn) into a
+# virtual environment under target/, a development tool only.
+PEER_VENV := target/peer-venv
+PEER_ARGS ?=
+peer-denoise: build
+	@test -x $(PEER_VENV)/bin/python || python3 -m venv $(PEER_VENV)
+	@$(PEER_VENV)/bin/python -c "import pyoidn, numpy, OpenEXR" 2>/dev/null || \
+	  $(PEER_VENV)/bin/pip install -q pyoidn==2.5.1.0 numpy OpenEXR
+	$(PEER_VENV)/bin/python scripts/peer_denoise.py --bin $(BIN) $(PEER_ARGS)
 
 fit-ltc: build
 	$(BIN) fit-ltc --size 64 --out data/ltc_64.bin --heatmap docs/ltc-fit-error.png

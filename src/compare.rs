@@ -1,5 +1,6 @@
 //! Image against reference: relMSE, mean FLIP, the largest absolute error
-//! and where it is, an optional FLIP heat map; what `penumbra compare` prints
+//! and where it is, the speckle count (isolated pixels off the reference by
+//! more than 2x), an optional FLIP heat map; what `penumbra compare` prints
 //! and what the golden-frame tests gate on.
 //!
 //! Both images are read as stored: EXR as linear radiance, PNG as its
@@ -179,6 +180,8 @@ pub struct Comparison {
     /// Largest |a - b| over pixels and channels.
     pub max_abs: f32,
     pub worst: Worst,
+    /// Isolated outliers ([`speckles`]), with the pixels they are counted among.
+    pub speckles: Speckles,
 }
 
 /// The gate a comparison must pass; `None` leaves a figure ungated.
@@ -247,6 +250,7 @@ pub fn compare(test: &Image, reference: &Image) -> Result<Comparison, CompareErr
         f64::from(nv_flip::FlipPool::from_image(&flip_map(test, reference)).mean())
     };
     Ok(Comparison {
+        speckles: speckles(test.width, &test.pixels, &reference.pixels, None),
         rel_mse: rel_mse(&test.pixels, &reference.pixels),
         mean_flip,
         max_abs,
@@ -257,6 +261,110 @@ pub fn compare(test: &Image, reference: &Image) -> Result<Comparison, CompareErr
             reference: reference.pixels.get(k).copied().unwrap_or(Vec3::ZERO),
         },
     })
+}
+
+/// Luminance off the reference's by more than this factor, either way,
+/// makes a pixel an outlier.
+pub const SPECKLE_FACTOR: f32 = 2.0;
+
+/// Reference luminance from which a pixel counts as lit: outliers are
+/// counted among lit pixels (a ratio of two near-zero values says nothing).
+pub const SPECKLE_LIT: f32 = 1e-2;
+
+/// Outliers among the lit pixels away from edges: how many pixels carry a
+/// luminance below 1/[`SPECKLE_FACTOR`] or above [`SPECKLE_FACTOR`] times
+/// the reference's.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Speckles {
+    pub dark: usize,
+    pub bright: usize,
+    /// The pixels counted among: lit and away from edges.
+    pub lit: usize,
+}
+
+impl Speckles {
+    /// Share of the lit pixels that are outliers (0 when none is lit).
+    pub fn fraction(&self) -> f64 {
+        (self.dark + self.bright) as f64 / self.lit.max(1) as f64
+    }
+}
+
+/// Counts isolated outliers of `test` (row-major, `width` pixels a row)
+/// against `reference`.
+///
+/// Away from edges: `mask` says where (the G-buffer's interior, when the
+/// caller has one); without it a pixel counts where the reference's own 3x3
+/// neighbourhood is smooth (every neighbour's luminance within
+/// [`SPECKLE_FACTOR`] of the pixel's), which leaves out silhouettes, hard
+/// shadow edges and the frame's border, where a sub-pixel shift alone puts
+/// a pixel 2x off. A speckle is an outlier where the truth is smooth.
+pub fn speckles(width: u32, test: &[Vec3], reference: &[Vec3], mask: Option<&[bool]>) -> Speckles {
+    let w = width as usize;
+    let n = test.len().min(reference.len());
+    let h = n.checked_div(w).unwrap_or(0);
+    let lum = |c: Vec3| crate::denoise::luminance(c);
+    let smooth = |x: usize, y: usize| {
+        if x == 0 || y == 0 || x + 1 >= w || y + 1 >= h {
+            return false;
+        }
+        let c = lum(reference[y * w + x]);
+        (y - 1..=y + 1).all(|yy| {
+            (x - 1..=x + 1).all(|xx| {
+                let q = lum(reference[yy * w + xx]);
+                q * SPECKLE_FACTOR >= c && q <= c * SPECKLE_FACTOR
+            })
+        })
+    };
+    let mut out = Speckles::default();
+    for k in 0..w * h {
+        let r = lum(reference[k]);
+        if !(r >= SPECKLE_LIT && r.is_finite()) {
+            continue;
+        }
+        let away = match mask {
+            Some(m) => m.get(k).copied().unwrap_or(false),
+            None => smooth(k % w, k / w),
+        };
+        if !away {
+            continue;
+        }
+        out.lit += 1;
+        let t = lum(test[k]);
+        if t * SPECKLE_FACTOR < r {
+            out.dark += 1;
+        } else if t > r * SPECKLE_FACTOR {
+            out.bright += 1;
+        }
+    }
+    out
+}
+
+/// Relative depth step between neighbours taken as a geometric edge.
+pub const DEPTH_EDGE: f32 = 0.05;
+
+/// Where a depth image (`render --aov depth`, of `reference`'s size) shows a
+/// surface whose 8 neighbours are surfaces within [`DEPTH_EDGE`] of its
+/// depth: the pixels away from geometric edges.
+pub fn away_from_depth_edges(depth: &Image, reference: &Image) -> Result<Vec<bool>, CompareError> {
+    check_pair(depth, reference)?;
+    let (w, h) = (depth.width as usize, depth.height as usize);
+    let d = |x: usize, y: usize| depth.pixels[y * w + x].x;
+    Ok((0..w * h)
+        .map(|k| {
+            let (x, y) = (k % w, k / w);
+            if x == 0 || y == 0 || x + 1 >= w || y + 1 >= h {
+                return false;
+            }
+            let c = d(x, y);
+            c > 0.0
+                && (y - 1..=y + 1).all(|yy| {
+                    (x - 1..=x + 1).all(|xx| {
+                        let q = d(xx, yy);
+                        q > 0.0 && (q - c).abs() <= DEPTH_EDGE * c
+                    })
+                })
+        })
+        .collect())
 }
 
 /// Writes FLIP's error map of `test` against `reference` as a PNG, in FLIP's
@@ -277,13 +385,19 @@ pub fn write_heatmap(test: &Image, reference: &Image, path: &Path) -> Result<(),
 pub fn format(c: &Comparison) -> String {
     let v = |c: Vec3| format!("({:.6}, {:.6}, {:.6})", c.x, c.y, c.z);
     format!(
-        "relMSE     {:.6e}\nmean FLIP  {:.6}\nmax |a-b|  {:.6}\nworst      pixel ({}, {}): a = {}, b = {}\n",
+        "relMSE     {:.6e}\nmean FLIP  {:.6}\nmax |a-b|  {:.6}\nworst      pixel ({}, {}): a = {}, b = {}\n\
+         speckles   {:.3} % of {} lit pixels away from edges ({} dark, {} bright; off by over {}x)\n",
         c.rel_mse,
         c.mean_flip,
         c.max_abs,
         c.worst.x,
         c.worst.y,
         v(c.worst.test),
-        v(c.worst.reference)
+        v(c.worst.reference),
+        c.speckles.fraction() * 100.0,
+        c.speckles.lit,
+        c.speckles.dark,
+        c.speckles.bright,
+        SPECKLE_FACTOR
     )
 }

@@ -274,6 +274,10 @@ struct CompareArgs {
     /// Exit 1 when mean FLIP is above this.
     #[arg(long, value_name = "Y")]
     max_flip: Option<f64>,
+    /// The frame's depth AOV (`render --aov depth`): speckles are counted
+    /// away from its geometric edges (without it, where the reference is smooth).
+    #[arg(long, value_name = "FILE.exr")]
+    depth: Option<PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -399,13 +403,14 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             String::new()
         };
         eprintln!(
-            "{}x{}{scaled} {} spp={} frames={}: last frame {:.1} ms",
+            "{}x{}{scaled} {} spp={} frames={}: last frame {:.1} ms (denoiser {:.2} ms)",
             w,
             h,
             c.mode,
             settings.spp,
             a.frames,
-            t.wall * 1e3
+            t.wall * 1e3,
+            t.denoise * 1e3
         );
     }
     for p in written {
@@ -546,7 +551,13 @@ fn cmd_compare(a: CompareArgs) -> ExitCode {
         }
         let test = Image::load(&a.test)?;
         let reference = Image::load(&a.reference)?;
-        let c = compare::compare(&test, &reference)?;
+        let mut c = compare::compare(&test, &reference)?;
+        if let Some(path) = &a.depth {
+            let depth = Image::load(path)?;
+            let mask = compare::away_from_depth_edges(&depth, &reference)?;
+            c.speckles =
+                compare::speckles(test.width, &test.pixels, &reference.pixels, Some(&mask));
+        }
         print!("{}", compare::format(&c));
         if let Some(path) = &a.heatmap {
             compare::write_heatmap(&test, &reference, path)?;

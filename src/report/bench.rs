@@ -316,6 +316,8 @@ struct Measured {
     /// relMSE per measured frame, all pixels and interior.
     errors: Vec<(f64, f64)>,
     first_frame_error: Option<f64>,
+    /// Speckle share (`compare::speckles`, interior) after the first and the last frame.
+    speckles: [Option<f64>; 2],
 }
 
 struct Bench<'a, 'd> {
@@ -353,6 +355,11 @@ impl Bench<'_, '_> {
             truth.map(|(r, m)| (rel_mse(c, r), rel_mse_masked(c, r, m)))
         };
         let first_frame_error = error(&frame, &output).map(|e| e.0);
+        let speckle = |f: &Frame, o: &Option<Upscaled>| {
+            let c = shown(f, o.as_ref());
+            truth.map(|(r, m)| crate::compare::speckles(width, c, r, Some(m)).fraction())
+        };
+        let first_speckles = speckle(&frame, &output);
         let mut runs = Vec::new();
         let mut errors = Vec::new();
         for _ in 0..self.frames {
@@ -363,6 +370,7 @@ impl Bench<'_, '_> {
             runs,
             errors,
             first_frame_error,
+            speckles: [first_speckles, speckle(&frame, &output)],
         }
     }
 
@@ -541,6 +549,8 @@ fn bench_scene(
             rel_mse: rel,
             rel_mse_interior: rel_in,
             rel_mse_first_frame: if dn { m.first_frame_error } else { None },
+            speckles: m.speckles[1],
+            speckles_first_frame: if dn { m.speckles[0] } else { None },
             ceiling_ms,
             over_ceiling: frame_ms.median / ceiling_ms,
         });

@@ -106,6 +106,13 @@ pub struct ConfigReport {
     pub rel_mse_interior: f64,
     /// Denoised only: the first frame's error (no temporal history).
     pub rel_mse_first_frame: Option<f64>,
+    /// Share of the lit interior pixels off the reference's luminance by
+    /// more than 2x either way (`compare::speckles`), after the last frame.
+    #[serde(default)]
+    pub speckles: Option<f64>,
+    /// Denoised only: the same after the first frame.
+    #[serde(default)]
+    pub speckles_first_frame: Option<f64>,
     /// Median Embree-alone time for the same camera and shadow rays.
     pub ceiling_ms: f64,
     /// Median frame time / `ceiling_ms`.

@@ -265,3 +265,74 @@ fn bad_limits_are_refused() {
         assert_eq!(run.status.code(), Some(2), "{v}");
     }
 }
+
+/// A flat grey reference: every interior pixel lit and smooth.
+fn flat(v: f32) -> Vec<Vec3> {
+    vec![Vec3::splat(v); (W * H) as usize]
+}
+
+#[test]
+fn an_isolated_pixel_off_by_more_than_twice_is_a_speckle_either_way() {
+    let reference = flat(0.5);
+    let mut test = reference.clone();
+    // Just inside the factor: no speckle.
+    test[(5 * W + 5) as usize] = Vec3::splat(0.5 * compare::SPECKLE_FACTOR * 0.99);
+    test[(5 * W + 9) as usize] = Vec3::splat(0.5 / compare::SPECKLE_FACTOR * 1.01);
+    // Beyond it, one bright and one dark.
+    test[(9 * W + 5) as usize] = Vec3::splat(0.5 * compare::SPECKLE_FACTOR * 1.01);
+    test[(9 * W + 9) as usize] = Vec3::splat(0.5 / compare::SPECKLE_FACTOR * 0.99);
+    let c = compare::compare(
+        &Image::linear(W, H, test, "test"),
+        &Image::linear(W, H, reference, "reference"),
+    )
+    .unwrap();
+    assert_eq!((c.speckles.dark, c.speckles.bright), (1, 1));
+    // Every pixel but the frame's border is smooth in the reference.
+    assert_eq!(c.speckles.lit, ((W - 2) * (H - 2)) as usize);
+    assert_eq!(c.speckles.fraction(), 2.0 / c.speckles.lit as f64);
+}
+
+#[test]
+fn speckles_are_not_counted_on_geometric_edges_or_dark_reference_pixels() {
+    let mut reference = flat(0.5);
+    // A dark reference pixel: a 0 in the test there is no speckle.
+    reference[(4 * W + 4) as usize] = Vec3::splat(compare::SPECKLE_LIT * 0.5);
+    let mut test = reference.clone();
+    test[(4 * W + 4) as usize] = Vec3::ZERO;
+    // A pixel on a depth step, off by 4x.
+    let (ex, ey) = (12u32, 8u32);
+    test[(ey * W + ex) as usize] = Vec3::splat(2.0);
+    let depth: Vec<Vec3> = (0..W * H)
+        .map(|k| Vec3::splat(if k % W > ex { 3.0 } else { 1.0 }))
+        .collect();
+    let depth = Image::linear(W, H, depth, "depth");
+    let reference = Image::linear(W, H, reference, "reference");
+    let mask = compare::away_from_depth_edges(&depth, &reference).unwrap();
+    assert!(!mask[(ey * W + ex) as usize] && !mask[(ey * W + ex + 1) as usize]);
+    let s = compare::speckles(W, &test, &reference.pixels, Some(&mask));
+    assert_eq!((s.dark, s.bright), (0, 0));
+    // Without the depth edge the same pixel counts.
+    let all = vec![true; (W * H) as usize];
+    let s = compare::speckles(W, &test, &reference.pixels, Some(&all));
+    assert_eq!((s.dark, s.bright), (0, 1));
+}
+
+#[test]
+fn the_cli_prints_the_speckle_count_against_the_depth_edges() {
+    let dir = std::env::temp_dir().join(format!("penumbra-speckle-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let reference = flat(0.5);
+    let mut test = reference.clone();
+    test[(6 * W + 6) as usize] = Vec3::splat(0.1);
+    let t = exr(&dir, "t.exr", W, H, &test);
+    let r = exr(&dir, "r.exr", W, H, &reference);
+    let d = exr(&dir, "d.exr", W, H, &flat(1.0));
+    let out = penumbra(&[&t, &r, flag("--depth"), &d]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(
+        text.contains("(1 dark, 0 bright"),
+        "speckle line missing or wrong: {text}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

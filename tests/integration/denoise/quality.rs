@@ -797,3 +797,92 @@ fn with_taa_after_a_disocclusion_the_error_recovers_without_a_ghost_trail() {
         fresh[fresh.len() - 1]
     );
 }
+
+/// Speckles (`compare::speckles`: lit pixels away from geometric edges whose
+/// luminance is off `reference`'s by more than 2x either way) after `n`
+/// static frames at 1 spp, TAA on, denoised or not, seed 1.
+fn speckles_after(name: &str, size: (u32, u32), n: usize, denoise: bool) -> f64 {
+    let scene = load(name);
+    let truth = reference(name, size, 0.0);
+    let frame = static_frames(&scene, size, Mode::Ratio, denoise, n);
+    let s = penumbra::compare::speckles(size.0, &frame.color, &truth, Some(&interior(&frame)));
+    println!(
+        "{name} {}x{}, {n} frames, denoise {denoise}: speckles {:.3} % ({} dark, {} bright of {} lit)",
+        size.0,
+        size.1,
+        s.fraction() * 100.0,
+        s.dark,
+        s.bright,
+        s.lit
+    );
+    s.fraction()
+}
+
+/// The speckle goal after 16 frames (docs/first-frame.md), met on room
+/// (0.05 % at 320x180, seed 1, when last measured).
+const ROOM_MAX_SPECKLES_16_FRAMES: f64 = 1e-3;
+/// On the built-in scene the goal is NOT met: the converged ratio
+/// estimator itself leaves about 0.4 % of its lit pixels over 2x off
+/// `reference` on the glossy strips (there `U` differs from the true
+/// unshadowed integral by that much; docs/first-frame.md). What holds: the
+/// denoised 16th frame has at most this share of the undenoised one's
+/// (1.47 % against 3.43 % at 320x180, seed 1, when last measured).
+const BUILT_IN_MAX_SPECKLE_SHARE_OF_UNDENOISED: f64 = 0.5;
+
+#[test]
+fn after_16_frames_under_one_pixel_in_a_thousand_is_a_speckle_on_room() {
+    let s = speckles_after("room.toml", (320, 180), 16, true);
+    assert!(s <= ROOM_MAX_SPECKLES_16_FRAMES, "speckles {s}");
+}
+
+#[test]
+fn after_16_frames_the_denoiser_removes_most_speckles_on_the_built_in_scene() {
+    let dn = speckles_after("default.toml", (320, 180), 16, true);
+    let raw = speckles_after("default.toml", (320, 180), 16, false);
+    assert!(
+        dn <= BUILT_IN_MAX_SPECKLE_SHARE_OF_UNDENOISED * raw,
+        "denoised {dn} vs undenoised {raw}"
+    );
+}
+
+/// Interior relMSE against `reference` of the 4th frame after the eye jumps
+/// by `jump_deg` about the target, after 16 frames of the scene camera,
+/// and of the 4th frame of a fresh start at the same view; TAA on, seed 1.
+fn after_a_jump(name: &str, size: (u32, u32), jump_deg: f32) -> (f64, f64) {
+    let scene = load(name);
+    let truth = reference(name, size, jump_deg);
+    let to = scene.camera.orbit(jump_deg);
+    let mut cams = vec![scene.camera; 16];
+    cams.extend([to; 4]);
+    let jumped = render_sequence(&scene, size, (Mode::Ratio, true, true), &cams, |_, _| {});
+    let fresh = render_sequence(&scene, size, (Mode::Ratio, true, true), &[to; 4], |_, _| {});
+    let inside = interior(&fresh);
+    let (a, b) = (
+        rel_mse_masked(&jumped.color, &truth, &inside),
+        rel_mse_masked(&fresh.color, &truth, &inside),
+    );
+    println!(
+        "{name} {}x{}: 4 frames after a {jump_deg} degree jump {a:.3e}, fresh {b:.3e}",
+        size.0, size.1
+    );
+    (a, b)
+}
+
+/// Four frames after a camera jump, the error is at most this many times a
+/// fresh start's at the same view (the history of the old view either
+/// reprojects onto the same surfaces or is dropped, never a ghost): 1.10x
+/// on room when last measured. NOT met on shadow-plane (2.7x after a 30
+/// degree jump, docs/first-frame.md); part of it is the old view's
+/// reflected visibility kept on the glossy strips (dropping the history
+/// where the specular part of `U` moved brought it to 2.0x, and broke the
+/// orbit's flicker bound).
+const JUMP_MAX_ERROR_OVER_FRESH: f64 = 1.5;
+
+#[test]
+fn four_frames_after_a_camera_jump_the_error_is_close_to_a_fresh_start_on_room() {
+    let (jumped, fresh) = after_a_jump("room.toml", (320, 180), 30.0);
+    assert!(
+        jumped <= JUMP_MAX_ERROR_OVER_FRESH * fresh,
+        "after the jump {jumped}, fresh {fresh}"
+    );
+}
