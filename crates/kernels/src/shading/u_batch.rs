@@ -72,12 +72,12 @@ pub use super::lanes::LANES;
 /// The batch's stated accuracy against the `f64` scalar path, per pixel
 /// and channel: within `PIXEL_TOL` of the pixel's whole `U`, plus
 /// `RADIANCE_TOL` of the light's radiance (one light's `U` never exceeds
-/// its radiance, so this is below 1e-8 of the brightest value the light can
-/// give). `PIXEL_TOL` is about an EXR half's resolution and a tenth of the
-/// LTC fit's own median error; the absolute part covers what `f32` cannot
-/// resolve of a light a few 1e-4 rad across (its contour sum cancels to
-/// `eps / size` of itself). `tests/integration/ltc/u_batch.rs` holds the
-/// batch to both.
+/// its radiance). `PIXEL_TOL` is twice an EXR half's resolution and a fifth
+/// of the LTC fit's own median error; the measured worst is 1.2e-3, where
+/// the shape correction's refinement decides differently on `f32` inputs.
+/// The absolute part covers what `f32` cannot resolve of a light a few 1e-4
+/// rad across (its contour sum cancels to `eps / size` of itself).
+/// `tests/integration/ltc/u_batch.rs` holds the batch to both.
 pub const PIXEL_TOL: f32 = 2e-3;
 pub const RADIANCE_TOL: f32 = 1e-6;
 
