@@ -73,8 +73,8 @@ pub use super::lanes::LANES;
 /// and channel: within `PIXEL_TOL` of the pixel's whole `U`, plus
 /// `RADIANCE_TOL` of the light's radiance (one light's `U` never exceeds
 /// its radiance). `PIXEL_TOL` is twice an EXR half's resolution and a fifth
-/// of the LTC fit's own median error; the measured worst is 1.2e-3, where
-/// the shape correction's refinement decides differently on `f32` inputs.
+/// of the LTC fit's own median error (measured worst: 1.2e-3, a rough
+/// metal under a large near triangle).
 /// The absolute part covers what `f32` cannot resolve of a light a few 1e-4
 /// rad across (its contour sum cancels to `eps / size` of itself).
 /// `tests/integration/ltc/u_batch.rs` holds the batch to both.
