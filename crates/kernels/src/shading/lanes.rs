@@ -1,8 +1,8 @@
 //! Lanes, one pixel (or one pixel's node) per lane, for the batched `U`
 //! (`u_batch`) and its shape correction
 //! (`ltc_correction::lobe_factors_lanes`): `Wide`, eight `f32` lanes (one
-//! pixel each: the contour sums, whose rounding each lane bounds against
-//! its pixel's whole `U`; see `u_batch`), `Quad`, four `f64` lanes (half a
+//! pixel each: the contour sums, accurate to a stated share of the pixel's
+//! whole `U`; see `u_batch`), `Quad`, four `f64` lanes (half a
 //! batch: the correction's per-pixel fan, where a small light cancels), and
 //! `Wide8`, eight `f32` lanes (the correction's cubature nodes, two nodes of
 //! a half batch's four pixels per value: it needs ~1e-3).
