@@ -66,11 +66,15 @@ pub struct Upscale {
     next: Vec<Texel>,
     /// The last frame's render-size guides: the witnesses of the history.
     witness: Witness,
-    /// Per output row: every pixel of it holds at least one sample, so the
-    /// empty-history fallback cannot be needed there.
-    complete: Vec<bool>,
+    /// Per output row: whether its pixels with no sample yet show a
+    /// placeholder, and whether it has any such pixel (`RowState`).
+    complete: Vec<RowState>,
     /// Per render pixel, the range of its 3x3 neighbourhood (the clamp).
     range: Vec<[Vec3; 2]>,
+    /// Per render pixel, whether the history where its sample was in the
+    /// last frame shows its surface and light (`same`): one test per
+    /// render pixel that the output pixels nearest it share.
+    keep: Vec<bool>,
 }
 
 /// Per-axis tables of one frame (see the module comment).
@@ -167,7 +171,8 @@ impl Upscale {
             hist: vec![[0.0; 4]; n],
             next: vec![[0.0; 4]; n],
             witness: Witness::default(),
-            complete: vec![false; height as usize],
+            keep: Vec::new(),
+            complete: vec![RowState::Empty; height as usize],
             range: Vec::new(),
         }
     }
@@ -180,7 +185,7 @@ impl Upscale {
     /// Forgets the history: the next frame stands alone.
     pub fn reset(&mut self) {
         self.hist.fill([0.0; 4]);
-        self.complete.fill(false);
+        self.complete.fill(RowState::Empty);
     }
 
     /// Samples averaged per output pixel after the last call.
@@ -314,14 +319,13 @@ impl Upscale {
         match motion {
             Some(CameraMotion::Moved) => {
                 self.fill_range(guide, color, surface, settings.clamp);
+                self.fill_keep(guide, surface, (mx, my));
                 let moved = Moved {
                     guide,
                     inv: my.a,
-                    surface,
-                    light_test: surface.light_test,
                     range: &self.range,
+                    keep: &self.keep,
                     prev: &self.hist,
-                    witness: &self.witness,
                     size: (ow, oh),
                 };
                 (
@@ -332,7 +336,11 @@ impl Upscale {
                     .into_par_iter()
                     .enumerate()
                     .for_each(|(oy, (texels, complete, mut item))| {
-                        *complete = moved.row(&frame, &blend, oy, texels);
+                        *complete = if moved.row(&frame, &blend, oy, texels) {
+                            RowState::Complete
+                        } else {
+                            RowState::Filled
+                        };
                         emit(&mut item, texels, true);
                     });
                 std::mem::swap(&mut self.hist, &mut self.next);
@@ -352,6 +360,24 @@ impl Upscale {
             }
         }
         self.witness.keep(guide, jitter, (mx, my));
+    }
+
+    /// Whether each render pixel keeps its history (`keep`).
+    fn fill_keep(&mut self, guide: &GuideBuffers, surface: &DenoiseSettings, (mx, my): (Map, Map)) {
+        let witness = &self.witness;
+        self.keep.resize(guide.depth.len(), false);
+        self.keep.par_iter_mut().enumerate().for_each(|(i, k)| {
+            let p = guide.prev_pixel[i];
+            *k = guide.prev_valid[i]
+                && surface_depth(guide.depth[i]) > 0.0
+                && same(
+                    guide,
+                    witness,
+                    surface,
+                    i,
+                    Vec2::new(mx.a * p.x + mx.b, my.a * p.y + my.b),
+                );
+        });
     }
 
     /// The range of each render pixel's sanitised colour over its 3x3
@@ -493,28 +519,44 @@ fn surface_depth(d: f32) -> f32 {
     if d.is_finite() && d > 0.0 { d } else { 0.0 }
 }
 
+/// What an output row's pixels with no sample (length 0) show.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RowState {
+    /// Nothing yet (after a reset): they need the interpolated frame.
+    Empty,
+    /// The interpolated frame of an earlier frame of this still view (a
+    /// placeholder until a sample lands; not refreshed, which would cost a
+    /// pass over the row each frame for pixels about to be replaced).
+    Filled,
+    /// Every pixel holds a sample.
+    Complete,
+}
+
 /// A still camera's output row, in place: each pixel averages the sample
 /// that landed in it, if any, into its own history. Pixels with no sample
-/// yet show the interpolated frame (only rows not yet `complete` look).
-/// Returns whether the row may have changed.
+/// yet show the interpolated frame. Returns whether the row may have
+/// changed.
 fn still_row(
     frame: &Current,
     blend: &Blend,
     oy: usize,
     texels: &mut [Texel],
-    complete: &mut bool,
+    state: &mut RowState,
 ) -> bool {
     let ky = frame.ay.sample[oy];
-    let changed = ky != NONE || !*complete;
+    let changed = ky != NONE || *state == RowState::Empty;
     if ky != NONE {
         for (ox, t) in texels.iter_mut().enumerate() {
             let (c, w) = frame.sample(ky, ox);
             *t = blend.apply(*t, c, w);
         }
     }
-    if !*complete {
-        *complete = fill_empty(frame, oy, texels);
-    }
+    *state = match *state {
+        RowState::Empty if fill_empty(frame, oy, texels) => RowState::Complete,
+        RowState::Empty => RowState::Filled,
+        RowState::Filled if ky != NONE && texels.iter().all(|t| t[3] > 0.0) => RowState::Complete,
+        other => other,
+    };
     changed
 }
 
@@ -583,11 +625,9 @@ struct Moved<'a, 'g> {
     guide: &'a GuideBuffers<'g>,
     /// Output pixels per render pixel (both axes).
     inv: f32,
-    surface: &'a DenoiseSettings,
-    light_test: bool,
     range: &'a [[Vec3; 2]],
+    keep: &'a [bool],
     prev: &'a [Texel],
-    witness: &'a Witness,
     size: (usize, usize),
 }
 
@@ -603,14 +643,13 @@ impl Moved<'_, '_> {
             let ix = frame.ax.nearest[ox] as usize;
             let i = iy * frame.rw + ix;
             let (c, w) = frame.sample(ky, ox);
-            let hist = (g.prev_valid[i] && surface_depth(g.depth[i]) > 0.0)
-                .then(|| {
-                    let centre = Vec2::new(ox as f32 + 0.5, oy as f32 + 0.5);
-                    let k = Vec2::new(ix as f32 + 0.5, iy as f32 + 0.5);
-                    let at = centre + (g.prev_pixel[i] - k) * self.inv;
-                    self.same(i, at).then(|| self.reprojected(at)).flatten()
-                })
-                .flatten();
+            let hist = if self.keep[i] {
+                let centre = Vec2::new(ox as f32 + 0.5, oy as f32 + 0.5);
+                let k = Vec2::new(ix as f32 + 0.5, iy as f32 + 0.5);
+                self.reprojected(centre + (g.prev_pixel[i] - k) * self.inv)
+            } else {
+                None
+            };
             *t = match hist {
                 Some(h) => {
                     let [lo, hi] = self.range[i];
@@ -626,27 +665,6 @@ impl Moved<'_, '_> {
             };
         }
         complete
-    }
-
-    /// Whether the history at `at` (output pixels, previous frame) shows
-    /// the surface and light of render pixel `i`: its witness passes the
-    /// denoiser's disocclusion test and shows the same `U`.
-    #[inline]
-    fn same(&self, i: usize, at: Vec2) -> bool {
-        let Some(j) = self.witness.nearest(at) else {
-            return false;
-        };
-        let (w, g, s) = (self.witness, self.guide, self.surface);
-        let (d, dj) = (g.depth[i], w.depth[j]);
-        let n = g.normal[i];
-        let surface = dj > 0.0
-            && (dj - d).abs() <= s.depth_tolerance * d
-            && n.dot(w.position[j] - g.position[i]).abs() <= s.plane_tolerance * d
-            && w.normal[j].dot(n) >= s.min_normal_dot;
-        let (a, b) = (luminance(g.u[i]), w.lu[j]);
-        let big = a.max(b);
-        let light = !(self.light_test && big > 1e-30 && (a - b).abs() > s.u_change * big);
-        surface && light
     }
 
     /// Bilinear fetch of the previous output at `at` (output pixels) over
@@ -686,6 +704,26 @@ impl Moved<'_, '_> {
         let inv = 1.0 / wsum;
         Some(sum.map(|s| s * inv))
     }
+}
+
+/// Whether the history at `at` (output pixels, last frame) shows the
+/// surface and light of render pixel `i`: its witness passes the
+/// denoiser's disocclusion test and shows the same `U`.
+#[inline]
+fn same(g: &GuideBuffers, w: &Witness, s: &DenoiseSettings, i: usize, at: Vec2) -> bool {
+    let Some(j) = w.nearest(at) else {
+        return false;
+    };
+    let (d, dj) = (g.depth[i], w.depth[j]);
+    let n = g.normal[i];
+    let surface = dj > 0.0
+        && (dj - d).abs() <= s.depth_tolerance * d
+        && n.dot(w.position[j] - g.position[i]).abs() <= s.plane_tolerance * d
+        && w.normal[j].dot(n) >= s.min_normal_dot;
+    let (a, b) = (luminance(g.u[i]), w.lu[j]);
+    let big = a.max(b);
+    let light = !(s.light_test && big > 1e-30 && (a - b).abs() > s.u_change * big);
+    surface && light
 }
 
 /// Whether render pixel `j` shows the surface of render pixel `i`: both no
