@@ -16,7 +16,7 @@
 //!   their own camera.
 
 use super::reference::{self, Reference};
-use super::stats::{median, rel_mse};
+use super::stats::{interior, median, rel_mse, rel_mse_masked};
 use crate::denoise::{CameraMotion, DenoiseSettings, ResolveSettings, Upscale};
 use crate::display::DisplayMap;
 use crate::embree::{self, Device};
@@ -179,19 +179,27 @@ impl Shower {
 /// One path's figures on one scene.
 struct PathResult {
     name: String,
-    /// relMSE at each still instant, and frames shown by then.
-    still: Vec<(f64, u32)>,
+    /// relMSE at each still instant (all pixels, interior), and frames
+    /// shown by then.
+    still: Vec<(f64, f64, u32)>,
     still_fps: f64,
     still_scale: f32,
-    /// Orbit: median relMSE of the measured frames, frames shown, fps.
-    orbit: f64,
+    /// Orbit: median relMSE of the measured frames (all pixels,
+    /// interior), frames shown, fps.
+    orbit: (f64, f64),
     orbit_frames: u32,
     orbit_fps: f64,
     orbit_scale: f32,
 }
 
-/// The reference of `camera` (not cached: one per orbit frame).
-fn camera_reference(world: &World, camera: &Camera, (w, h): (u32, u32), spp: u32) -> Vec<Vec3> {
+/// The reference of `camera` (not cached: one per orbit frame), and its
+/// interior pixels (`stats::interior`).
+fn camera_reference(
+    world: &World,
+    camera: &Camera,
+    (w, h): (u32, u32),
+    spp: u32,
+) -> (Vec<Vec3>, Vec<bool>) {
     let mut frame = Frame::new(w, h);
     let mut done = 0;
     while done < spp {
@@ -206,7 +214,8 @@ fn camera_reference(world: &World, camera: &Camera, (w, h): (u32, u32), spp: u32
         frame.render(world, camera, &settings);
         done += pass;
     }
-    frame.color
+    let inside = interior(w, h, &frame.gbuf);
+    (frame.color, inside)
 }
 
 fn scene_run(
@@ -237,6 +246,15 @@ fn scene_run(
     })?;
     let pass = output_pass_row(&world, &camera, size, &pool);
     eprintln!("{pass}");
+    let mask = {
+        let mut f = Frame::new(opts.width, opts.height);
+        let s = RenderSettings {
+            mode: Mode::Unshadowed,
+            ..RenderSettings::default()
+        };
+        pool.install(|| f.render(&world, &camera, &s));
+        interior(opts.width, opts.height, &f.gbuf)
+    };
     let settings = RenderSettings::default();
     let paths = [Path_::Full, Path_::Fixed(0.5), Path_::Dynamic];
     let end = opts.still_seconds.iter().copied().fold(0.0, f64::max);
@@ -256,7 +274,8 @@ fn scene_run(
                 times.push(t);
                 frames += 1;
             }
-            still.push((rel_mse(s.linear(), &truth), frames));
+            let c = s.linear();
+            still.push((rel_mse(c, &truth), rel_mse_masked(c, &truth, &mask), frames));
         }
         let still_fps = 1.0 / median(&times[1.min(times.len() - 1)..]);
         let still_scale = *s.scales.last().unwrap_or(&1.0);
@@ -276,9 +295,10 @@ fn scene_run(
             times.push(t);
             k += 1;
             if clock >= instant(errors.len()) {
-                let r =
+                let (r, m) =
                     pool.install(|| camera_reference(&world, &cam, size, opts.orbit_reference_spp));
-                errors.push(rel_mse(s.linear(), &r));
+                let c = s.linear();
+                errors.push((rel_mse(c, &r), rel_mse_masked(c, &r, &m)));
             }
         }
         let orbit_fps = 1.0 / median(&times[1.min(times.len() - 1)..]);
@@ -287,7 +307,10 @@ fn scene_run(
             still,
             still_fps,
             still_scale,
-            orbit: median(&errors),
+            orbit: (
+                median(&errors.iter().map(|e| e.0).collect::<Vec<_>>()),
+                median(&errors.iter().map(|e| e.1).collect::<Vec<_>>()),
+            ),
             orbit_frames: k,
             orbit_fps,
             orbit_scale: median(&s.scales.iter().map(|&x| x as f64).collect::<Vec<_>>()) as f32,
@@ -297,11 +320,12 @@ fn scene_run(
     let _ = writeln!(out, "\n{name} at {}x{}:", opts.width, opts.height);
     let mut head = String::from("| path | fps still (scale) |");
     for at in &opts.still_seconds {
-        let _ = write!(head, " relMSE {at} s (frames) |");
+        let _ = write!(head, " relMSE {at} s: all / interior (frames) |");
     }
     let _ = writeln!(
         head,
-        " orbit fps (median scale) | orbit relMSE, median of {} frames (frames shown) |",
+        " orbit fps (median scale) | orbit relMSE, median of {} frames: all / interior \
+         (frames shown) |",
         opts.orbit_samples
     );
     out.push_str(&head);
@@ -314,15 +338,16 @@ fn scene_run(
             r.still_fps,
             r.still_scale * 100.0
         );
-        for (e, f) in &r.still {
-            let _ = write!(line, " {e:.3e} ({f}) |");
+        for (e, ei, f) in &r.still {
+            let _ = write!(line, " {e:.3e} / {ei:.3e} ({f}) |");
         }
         let _ = writeln!(
             line,
-            " {:.1} ({:.0} %) | {:.3e} ({}) |",
+            " {:.1} ({:.0} %) | {:.3e} / {:.3e} ({}) |",
             r.orbit_fps,
             r.orbit_scale * 100.0,
-            r.orbit,
+            r.orbit.0,
+            r.orbit.1,
             r.orbit_frames
         );
         out.push_str(&line);
@@ -333,18 +358,19 @@ fn scene_run(
         .still
         .iter()
         .zip(&dynamic.still)
-        .map(|(f, d)| format!("{:.2}", d.0 / f.0))
+        .map(|(f, d)| format!("{:.2} / {:.2}", d.0 / f.0, d.1 / f.1))
         .collect();
     let _ = writeln!(
         out,
-        "dynamic over full size: still {} (at {}), orbit {:.2}",
+        "dynamic over full size (all / interior): still {} (at {}), orbit {:.2} / {:.2}",
         ratios.join(", "),
         opts.still_seconds
             .iter()
             .map(|s| format!("{s} s"))
             .collect::<Vec<_>>()
             .join(", "),
-        dynamic.orbit / full.orbit
+        dynamic.orbit.0 / full.orbit.0,
+        dynamic.orbit.1 / full.orbit.1
     );
     let _ = writeln!(out, "{pass}");
     Ok(results)
