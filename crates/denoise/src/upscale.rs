@@ -44,7 +44,7 @@
 //! caller drops it when the lights change.
 
 use super::resolve::{CameraMotion, ResolveSettings};
-use super::temporal::{bilinear_taps, sanitize};
+use super::temporal::{bilinear_taps, light_changed, sanitize};
 use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -586,8 +586,8 @@ struct Witness {
     depth: Vec<f32>,
     position: Vec<Vec3>,
     normal: Vec<Vec3>,
-    /// Luminance of the analytic `U`.
-    lu: Vec<f32>,
+    /// Luminance of the analytic `U` and of its diffuse part.
+    lu: Vec<(f32, f32)>,
 }
 
 impl Witness {
@@ -602,7 +602,7 @@ impl Witness {
         self.normal.clear();
         self.normal.extend_from_slice(g.normal);
         self.lu.clear();
-        self.lu.extend(g.u.iter().map(|&u| luminance(u)));
+        self.lu.extend((0..g.u.len()).map(|i| light_of(g, i)));
     }
 
     /// The render pixel of the last frame whose sample lay nearest `at`
@@ -708,7 +708,8 @@ impl Moved<'_, '_> {
 
 /// Whether the history at `at` (output pixels, last frame) shows the
 /// surface and light of render pixel `i`: its witness passes the
-/// denoiser's disocclusion test and shows the same `U`.
+/// denoiser's disocclusion test and shows the same light (`light_changed`,
+/// as the full-size resolve tests it).
 #[inline]
 fn same(g: &GuideBuffers, w: &Witness, s: &DenoiseSettings, i: usize, at: Vec2) -> bool {
     let Some(j) = w.nearest(at) else {
@@ -720,10 +721,18 @@ fn same(g: &GuideBuffers, w: &Witness, s: &DenoiseSettings, i: usize, at: Vec2) 
         && (dj - d).abs() <= s.depth_tolerance * d
         && n.dot(w.position[j] - g.position[i]).abs() <= s.plane_tolerance * d
         && w.normal[j].dot(n) >= s.min_normal_dot;
-    let (a, b) = (luminance(g.u[i]), w.lu[j]);
-    let big = a.max(b);
-    let light = !(s.light_test && big > 1e-30 && (a - b).abs() > s.u_change * big);
-    surface && light
+    surface && !(s.light_test && light_changed(light_of(g, i), w.lu[j], s.u_change))
+}
+
+/// Luminance of render pixel `i`'s analytic `U` and of its diffuse part:
+/// the light test's witnesses (the diffuse part, where it carries a fair
+/// share, does not change when only the camera moves).
+#[inline]
+fn light_of(g: &GuideBuffers, i: usize) -> (f32, f32) {
+    let lu = luminance(g.u[i]);
+    let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
+    let share = g.lobe.get(i).map_or(0.0, |l| l.share);
+    (lu, lu * (1.0 - share))
 }
 
 /// Whether render pixel `j` shows the surface of render pixel `i`: both no
