@@ -75,6 +75,9 @@ pub struct Upscale {
     /// last frame shows its surface and light (`same`): one test per
     /// render pixel that the output pixels nearest it share.
     keep: Vec<bool>,
+    /// Per render pixel, this frame's sanitised colour and surface depth
+    /// (0: no surface), read by the output pass in one load.
+    px: Vec<[f32; 4]>,
 }
 
 /// Per-axis tables of one frame (see the module comment).
@@ -172,6 +175,7 @@ impl Upscale {
             next: vec![[0.0; 4]; n],
             witness: Witness::default(),
             keep: Vec::new(),
+            px: Vec::new(),
             complete: vec![RowState::Empty; height as usize],
             range: Vec::new(),
         }
@@ -308,9 +312,17 @@ impl Upscale {
             inv_cap: 1.0 / cap,
             recip: recip_table(),
         };
+        if motion == Some(CameraMotion::Moved) {
+            self.fill_range(guide, color, surface, settings.clamp);
+            self.fill_keep(guide, surface, (mx, my));
+        }
+        self.px.resize(rn, [0.0; 4]);
+        self.px.par_iter_mut().enumerate().for_each(|(i, p)| {
+            let c = sanitize(color[i]);
+            *p = [c.x, c.y, c.z, surface_depth(guide.depth[i])];
+        });
         let frame = Current {
-            color,
-            depth: guide.depth,
+            px: &self.px,
             tolerance: surface.depth_tolerance,
             rw,
             ax: &ax,
@@ -318,8 +330,6 @@ impl Upscale {
         };
         match motion {
             Some(CameraMotion::Moved) => {
-                self.fill_range(guide, color, surface, settings.clamp);
-                self.fill_keep(guide, surface, (mx, my));
                 let moved = Moved {
                     guide,
                     inv: my.a,
@@ -452,10 +462,9 @@ impl Blend {
 
 /// The current frame as the output pass reads it.
 struct Current<'a> {
-    color: &'a [Vec3],
-    /// The render pixels' depths (0: no surface) and the relative depth
-    /// tolerance of "the same surface".
-    depth: &'a [f32],
+    /// The render pixels' sanitised colours and depths (0: no surface), and
+    /// the relative depth tolerance of "the same surface".
+    px: &'a [[f32; 4]],
     tolerance: f32,
     rw: usize,
     ax: &'a Axis,
@@ -474,7 +483,8 @@ impl Current<'_> {
         } else {
             0
         };
-        (sanitize(self.color[i]), if hit { 1.0 } else { 0.0 })
+        let p = self.px[i];
+        (Vec3::new(p[0], p[1], p[2]), if hit { 1.0 } else { 0.0 })
     }
 
     /// The bilinear interpolation of the frame at the output pixel's
@@ -486,8 +496,8 @@ impl Current<'_> {
     fn interpolated(&self, ox: usize, oy: usize) -> Vec3 {
         let (x0, x1, fx) = self.ax.taps[ox];
         let (y0, y1, fy) = self.ay.taps[oy];
-        let here = self.ay.nearest[oy] as usize * self.rw + self.ax.nearest[ox] as usize;
-        let d = surface_depth(self.depth[here]);
+        let here = self.px[self.ay.nearest[oy] as usize * self.rw + self.ax.nearest[ox] as usize];
+        let d = here[3];
         let tol = self.tolerance * d;
         let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
         for (x, y, wt) in [
@@ -496,18 +506,22 @@ impl Current<'_> {
             (x0, y1, (1.0 - fx) * fy),
             (x1, y1, fx * fy),
         ] {
-            let j = y as usize * self.rw + x as usize;
-            let dj = surface_depth(self.depth[j]);
-            let same = (d == 0.0 && dj == 0.0) || (d > 0.0 && dj > 0.0 && (dj - d).abs() <= tol);
-            if same && wt > 0.0 {
-                sum += sanitize(self.color[j]) * wt;
-                wsum += wt;
-            }
+            let q = self.px[y as usize * self.rw + x as usize];
+            let dj = q[3];
+            let same = if d == 0.0 {
+                dj == 0.0
+            } else {
+                dj > 0.0 && (dj - d).abs() <= tol
+            };
+            // A weight of 0 off the surface instead of a branch.
+            let wt = if same { wt } else { 0.0 };
+            sum += Vec3::new(q[0], q[1], q[2]) * wt;
+            wsum += wt;
         }
         if wsum > 1e-6 {
             sum / wsum
         } else {
-            sanitize(self.color[here])
+            Vec3::new(here[0], here[1], here[2])
         }
     }
 }
