@@ -108,6 +108,16 @@ impl DisplayMap {
     pub fn rgb8(&self, c: Vec3) -> [u8; 3] {
         [self.level(c.x), self.level(c.y), self.level(c.z)]
     }
+
+    /// One row of `[r, g, b, _]` linear texels (the upscale's) to 0RGB
+    /// window pixels; a non-finite channel shows 0.
+    #[inline]
+    pub fn row(&self, texels: &[[f32; 4]], out: &mut [u32]) {
+        for (p, t) in out.iter_mut().zip(texels) {
+            let [r, g, b] = [self.level(t[0]), self.level(t[1]), self.level(t[2])];
+            *p = (r as u32) << 16 | (g as u32) << 8 | b as u32;
+        }
+    }
 }
 
 #[cfg(test)]

@@ -189,9 +189,11 @@ struct ViewArgs {
     #[arg(long)]
     script: Option<PathBuf>,
     /// Scale the render resolution (down to a quarter of each side) to
-    /// hold this many frames per second; the window stretches the frame.
-    #[arg(long)]
-    target_fps: Option<f32>,
+    /// hold this many frames per second; the frames are upscaled to the
+    /// window's size by a temporal upscale, so a still camera converges to
+    /// the full-size image. 0 renders at the window's size.
+    #[arg(long, default_value_t = penumbra::view::DEFAULT_TARGET_FPS, allow_negative_numbers = true)]
+    target_fps: f32,
     /// Draw the overlay (mode, timings, fps): on | off. Key O toggles it.
     #[arg(long, default_value = "on")]
     overlay: Switch,
@@ -244,6 +246,20 @@ struct BenchArgs {
     /// Where references are cached.
     #[arg(long, default_value = "target/penumbra-cache")]
     cache: PathBuf,
+    /// Instead of the table: the viewer's dynamic resolution against the
+    /// full-size frame at equal wall-clock time, still and orbiting, and
+    /// the output pass in ns per pixel (docs/interactive.md).
+    #[arg(long)]
+    equal_time: bool,
+    /// --equal-time: the instants of the still camera, seconds.
+    #[arg(long, value_delimiter = ',', default_values_t = [0.5, 2.0, 8.0])]
+    still_seconds: Vec<f64>,
+    /// --equal-time: how long the camera orbits (1 degree per frame).
+    #[arg(long, default_value_t = 3.0)]
+    orbit_seconds: f64,
+    /// --equal-time: samples per pixel of each orbit frame's reference.
+    #[arg(long, default_value_t = 16)]
+    orbit_ref_spp: u32,
 }
 
 #[derive(Args)]
@@ -459,7 +475,7 @@ fn view_options(a: ViewArgs) -> penumbra::view::ViewOptions {
         threads: a.common.threads,
         exposure: a.common.exposure,
         overlay: a.overlay == Switch::On,
-        target_fps: a.target_fps,
+        target_fps: (a.target_fps != 0.0).then_some(a.target_fps),
         frames: a.frames,
         screenshot: a.screenshot,
         script: a.script,
@@ -505,6 +521,22 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
     } else {
         vec![None]
     };
+    if a.equal_time {
+        if a.still_seconds.iter().any(|s| !(s.is_finite() && *s > 0.0))
+            || !(a.orbit_seconds.is_finite() && a.orbit_seconds > 0.0)
+            || a.orbit_ref_spp == 0
+        {
+            bail!(
+                "--still-seconds and --orbit-seconds must be positive, --orbit-ref-spp at least 1"
+            );
+        }
+        let mut e = report::interactive::EqualTimeOptions::new(opts.cache_dir.clone());
+        (e.width, e.height, e.reference_spp) = (opts.width, opts.height, opts.reference_spp);
+        (e.still_seconds, e.orbit_seconds, e.orbit_reference_spp) =
+            (a.still_seconds, a.orbit_seconds, a.orbit_ref_spp);
+        print!("{}", report::interactive::run(&scenes, &e)?);
+        return Ok(());
+    }
     let result = match &a.from_json {
         Some(path) => {
             let text = std::fs::read_to_string(path)

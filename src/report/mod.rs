@@ -3,6 +3,7 @@
 
 mod bench;
 mod ceiling;
+pub mod interactive;
 pub mod machine;
 pub mod plot;
 pub mod progress;

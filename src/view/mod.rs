@@ -12,3 +12,6 @@ mod session;
 mod window;
 
 pub use window::{ViewOptions, run};
+
+/// The frame rate `penumbra view` holds unless told otherwise.
+pub const DEFAULT_TARGET_FPS: f32 = 30.0;

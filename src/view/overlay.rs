@@ -11,12 +11,21 @@ pub struct FrameTiming {
     /// Band pass and composite: the frame's wall time less the denoiser.
     pub render: f64,
     pub denoise: f64,
-    /// Tonemap, overlay and handing the pixels to the window.
-    pub present: f64,
+    /// The passes at the window's size: upscale (under a target frame
+    /// rate), display transform, overlay and handing the pixels to the
+    /// window.
+    pub output: f64,
+    /// Of `output`: the upscale with the display transform fused into it
+    /// (0 at the window's size), the rest being overlay and copy.
+    pub upscale: f64,
     /// The whole loop iteration, input to input.
     pub total: f64,
     /// Camera and shadow rays traced.
     pub rays: u64,
+    /// Render size over window size (1: the window's size).
+    pub scale: f32,
+    /// The window's pixels.
+    pub output_pixels: u64,
 }
 
 impl FrameTiming {
@@ -114,10 +123,10 @@ impl Readout {
                     .map_or(String::new(), |s| format!(" ({:.0}%)", s * 100.0))
             ),
             format!(
-                "MS RENDER {:.1} DENOISE {:.1} PRESENT {:.1}",
+                "MS RENDER {:.1} DENOISE {:.1} OUTPUT {:.1}",
                 t.render * 1e3,
                 t.denoise * 1e3,
-                t.present * 1e3
+                t.output * 1e3
             ),
             format!(
                 "{} FPS  {:.1} MRAYS/S  SPEED {:.2}  H HELP",
@@ -219,9 +228,12 @@ mod tests {
             timing: FrameTiming {
                 render: 0.025,
                 denoise: 0.004,
-                present: 0.001,
+                output: 0.001,
+                upscale: 0.0,
                 total: 0.04,
                 rays: 2_000_000,
+                scale: 1.0,
+                output_pixels: 320 * 180,
             },
             speed: 2.5,
             status: None,
@@ -236,7 +248,7 @@ mod tests {
             lines[0],
             "RATIO  DENOISE ON  TAA ON  VIS 1/4  2 SPP  320X180"
         );
-        assert_eq!(lines[1], "MS RENDER 25.0 DENOISE 4.0 PRESENT 1.0");
+        assert_eq!(lines[1], "MS RENDER 25.0 DENOISE 4.0 OUTPUT 1.0");
         assert_eq!(lines[2], "25.0 FPS  80.0 MRAYS/S  SPEED 2.50  H HELP");
         let title = readout().title();
         assert!(

@@ -6,11 +6,12 @@ use super::controls::Flyer;
 use super::input::{Action, FrameInput};
 use super::overlay::{self, FrameTiming, Readout};
 use super::present;
-use super::scale::DynamicScale;
+use super::scale::{DynamicScale, FrameCost};
 use crate::display::DisplayMap;
-use crate::render::{self, Frame, FramePlan, Mode, PhaseTimes, RenderSettings, Upscaled, World};
+use crate::render::{Frame, FramePlan, Mode, PhaseTimes, RenderSettings, Upscaled, World};
 use crate::scene::Camera;
 use glam::Vec3;
+use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 /// Look sensitivity: radians per pixel dragged, and per second of arrow key.
@@ -49,6 +50,16 @@ pub struct Session {
     window: (u32, u32),
     /// Holds a target frame rate by the render resolution (`--target-fps`).
     pub dynamic: Option<DynamicScale>,
+    /// The last frame's fused upscale and display transform, in seconds
+    /// (0 when the frame is the window's size: `compose` transforms it).
+    output_pass: f64,
+    /// Whether the last frame's camera differs from the one before.
+    moved: bool,
+    /// The window pixels hold the upscale's last output but for the rows
+    /// the overlay drew over (`overlay_rows`): rows the upscale did not
+    /// change need no display transform.
+    fresh: bool,
+    overlay_rows: std::ops::Range<usize>,
 }
 
 impl Session {
@@ -78,6 +89,10 @@ impl Session {
             non_finite: 0,
             window: (width, height),
             dynamic: None,
+            output_pass: 0.0,
+            moved: false,
+            fresh: false,
+            overlay_rows: 0..0,
         }
     }
 
@@ -115,17 +130,22 @@ impl Session {
         let n = w as usize * h as usize;
         if self.pixels.len() != n {
             self.pixels = vec![0; n];
+            self.fresh = false;
         }
     }
 
-    /// Takes a shown frame's time; under a target frame rate, rescales the
-    /// render when the controller says so.
-    pub fn hold_frame_rate(&mut self, frame_seconds: f64) {
-        if self
-            .dynamic
-            .as_mut()
-            .is_some_and(|d| d.observe(frame_seconds))
-        {
+    /// Takes the last recorded frame's figures; under a target frame rate,
+    /// rescales the render when the controller says so.
+    pub fn hold_frame_rate(&mut self) {
+        let Some(t) = self.timings.last() else {
+            return;
+        };
+        let cost = FrameCost {
+            total: t.total,
+            output: t.output,
+            moving: self.moved,
+        };
+        if self.dynamic.as_mut().is_some_and(|d| d.observe(cost)) {
             let (w, h) = self.render_size();
             self.resize(w, h);
         }
@@ -150,8 +170,11 @@ impl Session {
     }
 
     /// The linear radiance shown, at `shown_size`.
-    pub fn shown(&self) -> &[Vec3] {
-        render::shown(&self.frame, self.upscaled.as_ref())
+    pub fn shown(&mut self) -> &[Vec3] {
+        match self.upscaled.as_mut() {
+            Some(u) => u.linear(),
+            None => &self.frame.color,
+        }
     }
 
     /// Carries out a command. Returns `false` for `Quit`. A screenshot
@@ -238,45 +261,77 @@ impl Session {
             }
             self.accumulated += self.settings.spp;
         }
+        self.moved = self.last_camera != Some(camera);
         self.last_camera = Some(camera);
-        render::render_frame(
+        let Some(up) = self.upscaled.as_mut() else {
+            self.output_pass = 0.0;
+            return self.frame.render(world, &camera, &self.settings);
+        };
+        // The upscale hands each finished row to the display transform:
+        // one pass over the window's pixels, and none over rows that kept
+        // their pixels.
+        let (w, _) = up.output_size();
+        let map = &self.display;
+        let (fresh, overlay) = (self.fresh, self.overlay_rows.clone());
+        let times = up.render_rows(
             &mut self.frame,
-            self.upscaled.as_mut(),
             world,
             &camera,
             &self.settings,
-        )
+            self.pixels.par_chunks_mut(w as usize).enumerate(),
+            |(y, row): &mut (usize, &mut [u32]), texels: &[[f32; 4]], changed: bool| {
+                if changed || !fresh || overlay.contains(y) {
+                    map.row(texels, row);
+                }
+            },
+        );
+        self.fresh = true;
+        self.output_pass = up.upscale_seconds;
+        times
     }
 
-    /// Tonemaps the frame into the window pixels and draws the overlay.
-    /// Must run inside the rayon pool.
+    /// Tonemaps the frame into the window pixels (unless the upscale did)
+    /// and draws the overlay. Must run inside the rayon pool.
     pub fn compose(&mut self) {
-        let color = render::shown(&self.frame, self.upscaled.as_ref());
-        let bad = present::to_display(color, &self.display, &mut self.pixels);
-        if bad > 0 && self.non_finite == 0 {
-            eprintln!("penumbra: the renderer produced non-finite pixels; they are shown black");
+        // The upscale replaces non-finite samples by 0 before averaging, so
+        // only a frame at the window's size can show any.
+        if self.upscaled.is_none() {
+            let bad = present::to_display(&self.frame.color, &self.display, &mut self.pixels);
+            if bad > 0 && self.non_finite == 0 {
+                eprintln!(
+                    "penumbra: the renderer produced non-finite pixels; they are shown black"
+                );
+            }
+            self.non_finite += bad as u64;
         }
-        self.non_finite += bad as u64;
+        self.overlay_rows = 0..0;
         if self.overlay {
             let lines = self.readout().lines();
             let (w, h) = self.shown_size();
-            overlay::draw(&mut self.pixels, w as usize, h as usize, &lines);
+            let (_, y, _, bh) = overlay::draw(&mut self.pixels, w as usize, h as usize, &lines);
+            self.overlay_rows = y..y + bh;
         }
     }
 
-    /// Records a shown frame's figures.
+    /// Records a shown frame's figures: `present` is the overlay, the
+    /// display transform when the upscale did not fuse it, and the copy to
+    /// the window.
     pub fn record(&mut self, times: &PhaseTimes, present: f64, total: f64) {
         let primary = self.frame.pixel_count() as u64
             * match self.settings.mode {
                 Mode::Reference => self.settings.spp as u64,
                 _ => 1,
             };
+        let (ow, oh) = self.shown_size();
         let t = FrameTiming {
-            render: times.wall - times.denoise,
+            render: (times.wall - times.denoise - self.output_pass).max(0.0),
             denoise: times.denoise,
-            present,
+            output: self.output_pass + present,
+            upscale: self.output_pass,
             total,
             rays: primary + times.shadow_rays,
+            scale: self.dynamic.as_ref().map_or(1.0, |d| d.scale()),
+            output_pixels: ow as u64 * oh as u64,
         };
         self.timings.push(t);
         // An exponential average keeps the numbers readable while moving.
@@ -287,9 +342,12 @@ impl Session {
             let a = 0.2;
             s.render += a * (t.render - s.render);
             s.denoise += a * (t.denoise - s.denoise);
-            s.present += a * (t.present - s.present);
+            s.output += a * (t.output - s.output);
+            s.upscale += a * (t.upscale - s.upscale);
             s.total += a * (t.total - s.total);
             s.rays = t.rays;
+            s.scale = t.scale;
+            s.output_pixels = t.output_pixels;
         }
     }
 
@@ -338,11 +396,23 @@ impl Session {
             v.get(v.len() / 2).copied().unwrap_or(0.0)
         };
         let total = median(&|t| t.total);
-        let (w, h) = self.size();
+        let output = median(&|t| t.output);
+        let (w, h) = self.shown_size();
+        let (rw, rh) = self.size();
+        let scale = match &self.dynamic {
+            Some(d) => format!(
+                "target {:.0} fps, settled at scale {:.0}% ({rw}x{rh})",
+                d.target_fps(),
+                d.scale() * 100.0
+            ),
+            None => "no target (full size)".to_string(),
+        };
+        let pixels = w as f64 * h as f64;
         format!(
-            "penumbra view: {} frames at {w}x{h}, {} mode, last spp {}; median of {} frames: \
-             frame {:.1} ms ({:.2} fps), render {:.1} ms, denoise {:.1} ms, present {:.1} ms, \
-             {:.2} Mrays/s; non-finite pixels shown black: {}",
+            "penumbra view: {} frames at {w}x{h}, {} mode, last spp {}, {scale}; median of {} \
+             frames: frame {:.1} ms ({:.2} fps), render {:.1} ms, denoise {:.1} ms, output {:.1} \
+             ms ({:.1} ns/px; upscale+display {:.1} ms, overlay+copy {:.1} ms), {:.2} Mrays/s; \
+             non-finite pixels shown black: {}",
             self.timings.len(),
             self.settings.mode,
             self.settings.spp,
@@ -351,7 +421,10 @@ impl Session {
             if total > 0.0 { 1.0 / total } else { 0.0 },
             median(&|t| t.render) * 1e3,
             median(&|t| t.denoise) * 1e3,
-            median(&|t| t.present) * 1e3,
+            output * 1e3,
+            output * 1e9 / pixels.max(1.0),
+            median(&|t| t.upscale) * 1e3,
+            median(&|t| t.output - t.upscale) * 1e3,
             median(&|t| t.mrays_per_s()),
             self.non_finite
         )

@@ -25,7 +25,8 @@ pub struct ViewOptions {
     pub threads: usize,
     pub exposure: f32,
     /// Scale the render resolution to hold this frame rate (the frame is
-    /// upscaled to the window's size, `render::upscaled`).
+    /// upscaled to the window's size, `render::upscaled`); `None`: render
+    /// at the window's size.
     pub target_fps: Option<f32>,
     /// Draw the overlay (key `O` toggles it).
     pub overlay: bool,
@@ -89,7 +90,8 @@ pub fn run(opts: ViewOptions) -> Result<()> {
     )?;
     if let Some(path) = &opts.screenshot {
         let (w, h) = session.shown_size();
-        for p in present::save_screenshot(path, w, h, &session.pixels, session.shown())? {
+        let linear = session.shown().to_vec();
+        for p in present::save_screenshot(path, w, h, &session.pixels, &linear)? {
             println!("{}", p.display());
         }
     }
@@ -161,7 +163,9 @@ fn fly(
         session.steer(&input, dt);
         let now_size = window.get_size();
         if let Some((rw, rh)) = input.resize {
-            session.resize(rw, rh);
+            // A scripted resize stands for the window's: under a target
+            // frame rate the render takes its scale of the new size.
+            session.resize_window(rw, rh);
         } else if now_size != window_size {
             // The user resized the window: render at its new size.
             session.resize_window(now_size.0 as u32, now_size.1 as u32);
@@ -180,7 +184,7 @@ fn fly(
         let total = start.elapsed().as_secs_f64();
         session.record(&times, present, total);
         if input.resize.is_none() {
-            session.hold_frame_rate(total);
+            session.hold_frame_rate();
         }
         shown += 1;
     }
@@ -221,9 +225,10 @@ fn take_screenshots(session: &mut Session, requests: Vec<Option<PathBuf>>) -> Re
 }
 
 /// Writes what the window shows now; returns a message saying where.
-fn screenshot(session: &Session, path: &Path) -> Result<String> {
+fn screenshot(session: &mut Session, path: &Path) -> Result<String> {
     let (w, h) = session.shown_size();
-    let [png, exr] = present::save_screenshot(path, w, h, &session.pixels, session.shown())?;
+    let linear = session.shown().to_vec();
+    let [png, exr] = present::save_screenshot(path, w, h, &session.pixels, &linear)?;
     Ok(format!("saved {} and {}", png.display(), exr.display()))
 }
 

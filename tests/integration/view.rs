@@ -125,7 +125,14 @@ fn a_scripted_flight_through_room_shows_every_mode_and_the_motion() {
     let room = room();
     let room = room.to_str().unwrap();
     let size = ["--width", "320", "--height", "180"];
-    let mut args = vec![room, "--script", script.to_str().unwrap()];
+    // At the window's size: the frames are compared with `render`'s.
+    let mut args = vec![
+        room,
+        "--script",
+        script.to_str().unwrap(),
+        "--target-fps",
+        "0",
+    ];
     args.extend(size);
     let out = view(&args);
     let summary = String::from_utf8_lossy(&out.stderr);
@@ -210,7 +217,14 @@ fn frames_and_screenshot_close_the_window_and_write_what_render_writes() {
     }
     let shot = temp("shot.png");
     let size = ["--width", "160", "--height", "90"];
-    let mut args = vec!["--mode", "unshadowed", "--overlay", "off"];
+    let mut args = vec![
+        "--mode",
+        "unshadowed",
+        "--overlay",
+        "off",
+        "--target-fps",
+        "0",
+    ];
     args.extend(size);
     args.extend(["--frames", "3", "--screenshot", shot.to_str().unwrap()]);
     let out = view(&args);
@@ -243,6 +257,8 @@ fn a_resize_reallocates_the_frame_at_the_new_size() {
     .unwrap();
     // TAA off: the check is the size, compared with one unjittered frame.
     view(&[
+        "--target-fps",
+        "0",
         "--mode",
         "unshadowed",
         "--taa",
@@ -292,4 +308,54 @@ fn a_bad_script_is_refused_with_file_and_line_before_any_window_opens() {
         err.contains("bad.txt:2: key w") && !err.contains("panicked"),
         "stderr: {err}"
     );
+}
+
+/// With no flag the viewer holds its default frame rate by rendering below
+/// the window's size: a scripted run (a still start, a turn, a stop) shows
+/// every frame at the window's size and says in its closing line the
+/// target and the scale it settled at. Frame times decide the scale, so
+/// which step it ends on is not asserted (`view::scale`'s tests feed the
+/// controller synthetic times and check its steps); that it ran under the
+/// controller, showed the window's size and stayed finite is.
+#[test]
+fn by_default_the_viewer_holds_a_frame_rate_and_reports_its_scale() {
+    if !have_xvfb() {
+        return;
+    }
+    let shot = temp("dynamic.png");
+    let resized = temp("dynamic-resized.png");
+    let script = temp("dynamic.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "frame 4 drag 30 0\nframe 5 drag 30 0\nframe 6 drag 30 0\n\
+             frame 10 screenshot {}\nframe 10 resize 200 112\n\
+             frame 14 screenshot {}\nframe 14 quit\n",
+            shot.display(),
+            resized.display()
+        ),
+    )
+    .unwrap();
+    let room = room();
+    let out = view(&[
+        room.to_str().unwrap(),
+        "--width",
+        "320",
+        "--height",
+        "180",
+        "--script",
+        script.to_str().unwrap(),
+    ]);
+    let summary = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        summary.contains("14 frames at 200x112")
+            && summary.contains("target 30 fps, settled at scale ")
+            && summary.contains("non-finite pixels shown black: 0"),
+        "{summary}"
+    );
+    assert_eq!(png(&shot).dimensions(), (320, 180));
+    assert_eq!(png(&resized).dimensions(), (200, 112));
+    let linear = exr(&shot.with_extension("exr"));
+    assert_eq!(linear.dimensions(), (320, 180));
+    assert!(linear.pixels().all(|p| p.0.iter().all(|c| c.is_finite())));
 }

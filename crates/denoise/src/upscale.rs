@@ -5,9 +5,9 @@
 //! Each frame's camera rays go through one jittered point per render pixel
 //! (`sampling::sequence::frame_jitter`, a (0,m,2)-net over the render pixel
 //! in its first 2^m frames), so over frames the render pixels' samples
-//! cover every output pixel. Each output pixel takes the current samples
-//! that fall inside it (at most one while the render is no larger than the
-//! output) and averages them into its history with equal weights: the
+//! cover every output pixel. Each output pixel takes the current sample
+//! that falls inside it (at most one while the render is no larger than the
+//! output) and averages it into its history with equal weights: the
 //! history length counts samples, not frames, so a pixel no sample fell in
 //! this frame keeps its history unchanged. For a still camera the result is
 //! the mean of the jittered samples inside the output pixel, the box filter
@@ -16,62 +16,153 @@
 //! pixel with no sample yet shows the bilinear interpolation of the current
 //! frame, which counts for nothing once a sample arrives.
 //!
-//! A moving camera reprojects the output history along the render pixel's
-//! motion vector (bilinear, each tap checked with the denoiser's
-//! disocclusion test against the render pixel whose sample lies nearest the
-//! output pixel's centre), clamps it to the range of that pixel's 3x3
-//! render neighbours on its surface (no ghost trails), drops it where the
-//! analytic `U` changed, and caps it short, as [`super::resolve`] does at
-//! the frame's own size. The bilinear fallback
-//! too takes only taps on that surface, so it carries no light across a
-//! depth or normal edge.
+//! A moving camera reprojects the output history along the motion vector
+//! of the render pixel whose sample lies nearest the output pixel's centre
+//! (bilinear), clamps it to the range of that pixel's 3x3 render
+//! neighbours on its surface (no ghost trails), and caps it short, as
+//! [`super::resolve`] does at the frame's own size. The history is kept
+//! only where it shows the same surface and light: the witness is the
+//! previous frame's render pixel whose sample lay nearest the reprojected
+//! point (the previous frame's guides are kept, at the render size), which
+//! must pass the denoiser's disocclusion test (depth, tangent plane,
+//! normal) against the current one and show the same analytic `U` within
+//! its tolerance (a glossy reflection that moved with the view).
+//!
+//! The output pass is a memory pass, so it is built as one: the history is
+//! one `[r, g, b, len]` record per output pixel (the surface tests read
+//! render-size buffers, a sixteenth of the output at a quarter scale); which render
+//! sample lands in which output column and row, the nearest render pixel
+//! and the fallback's bilinear taps depend on one axis each and are tables
+//! built per frame; the blend weight `1 / len` is a table too. A still
+//! camera updates the history in place (each pixel reads only itself), a
+//! moving one writes the other buffer. Each finished row is handed to the
+//! caller while it is in cache (`resolve_rows`: the viewer's display
+//! transform), so upscale and display are one pass over the output.
 //!
 //! The history belongs to the output grid, so a change of render size (a
 //! dynamic-resolution step) keeps it; a change of output size drops it. The
 //! caller drops it when the lights change.
 
-use super::history::Meta;
-use super::resolve::{CameraMotion, Pixel, ResolveSettings};
-use super::temporal::{bilinear_taps, light_changed, same_surface, sanitize};
-use super::{DenoiseSettings, GuideBuffers};
+use super::resolve::{CameraMotion, ResolveSettings};
+use super::temporal::{bilinear_taps, light_changed, sanitize};
+use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-/// One frame of the upscaled colour and what the next frame needs to
-/// validate it.
-struct OutputHistory {
-    color: Vec<Vec3>,
-    /// `len` counts the samples averaged (capped; fractional after
-    /// reprojection; 0: none yet).
-    meta: Vec<Meta>,
+/// One output pixel's history: the averaged colour and the number of
+/// samples in it (capped; fractional after reprojection; 0: none yet).
+pub type Texel = [f32; 4];
+
+/// No render sample lands in this output column (or row).
+const NONE: u32 = u32::MAX;
+
+/// Upscale state at the output's size.
+pub struct Upscale {
+    width: u32,
+    height: u32,
+    /// The history the next frame starts from.
+    hist: Vec<Texel>,
+    /// A moving camera's frame is written here, then swapped in.
+    next: Vec<Texel>,
+    /// The last frame's render-size guides: the witnesses of the history.
+    witness: Witness,
+    /// Per output row: whether its pixels with no sample yet show a
+    /// placeholder, and whether it has any such pixel (`RowState`).
+    complete: Vec<RowState>,
+    /// Per render pixel, the range of its 3x3 neighbourhood (the clamp).
+    range: Vec<[Vec3; 2]>,
+    /// Per render pixel, whether the history where its sample was in the
+    /// last frame shows its surface and light (`same`): one test per
+    /// render pixel that the output pixels nearest it share.
+    keep: Vec<bool>,
+    /// Per render pixel, this frame's sanitised colour and surface depth
+    /// (0: no surface), read by the output pass in one load.
+    px: Vec<[f32; 4]>,
 }
 
-impl OutputHistory {
-    fn new(n: usize) -> OutputHistory {
-        OutputHistory {
-            color: vec![Vec3::ZERO; n],
-            meta: vec![Meta::default(); n],
+/// Per-axis tables of one frame (see the module comment).
+struct Axis {
+    /// The render column (row) whose sample lands in this output column
+    /// (row), or `NONE`.
+    sample: Vec<u32>,
+    /// The render column (row) whose sample lies nearest the centre.
+    nearest: Vec<u32>,
+    /// The fallback's bilinear taps: two render columns and the weight of
+    /// the second.
+    taps: Vec<(u32, u32, f32)>,
+}
+
+/// Where render coordinates land on the output: `o = a * r + b` (pixel
+/// coordinates, both continuous). The camera keeps its vertical field of
+/// view at every size, so both axes scale by the ratio of the heights;
+/// horizontally the render's view is centred on the output's, and where
+/// the rounded render size has another aspect than the output it spans a
+/// little more or less of it.
+#[derive(Clone, Copy, Debug, Default)]
+struct Map {
+    a: f32,
+    b: f32,
+}
+
+impl Map {
+    /// The horizontal and vertical maps of a render of `rw` x `rh` pixels
+    /// onto an output of `ow` x `oh`.
+    fn of((rw, rh): (usize, usize), (ow, oh): (usize, usize)) -> (Map, Map) {
+        let a = oh as f32 / rh as f32;
+        (
+            Map {
+                a,
+                b: 0.5 * ow as f32 - 0.5 * rw as f32 * a,
+            },
+            Map { a, b: 0.0 },
+        )
+    }
+
+    #[inline(always)]
+    fn to_render(self, o: f32) -> f32 {
+        (o - self.b) / self.a
+    }
+}
+
+impl Axis {
+    /// `out` output pixels over `n` render pixels, samples at `k + jitter`
+    /// mapped by `map`.
+    fn new(out: usize, n: usize, jitter: f32, map: Map) -> Axis {
+        let mut sample = vec![NONE; out];
+        for k in 0..n {
+            // Half-open output pixels: a sample on a boundary belongs to
+            // exactly one. With the render larger than the output (not a
+            // size the renderer picks) the last sample of a pixel is kept.
+            let o = ((k as f32 + jitter) * map.a + map.b).floor();
+            if o >= 0.0 && (o as usize) < out {
+                sample[o as usize] = k as u32;
+            }
+        }
+        let last = (n - 1) as f32;
+        let (nearest, taps) = (0..out)
+            .map(|o| {
+                let r = map.to_render(o as f32 + 0.5);
+                let nearest = (r - jitter + 0.5).max(0.0).min(last) as u32;
+                // Samples at +0.5 in the interpolation's coordinates.
+                let p = (r - jitter).clamp(0.0, last);
+                let k0 = p.floor();
+                let k1 = (k0 + 1.0).min(last);
+                (nearest, (k0 as u32, k1 as u32, p - k0))
+            })
+            .unzip();
+        Axis {
+            sample,
+            nearest,
+            taps,
         }
     }
 }
 
-/// Upscale state at the output's size: the previous output and the one
-/// being written.
-pub struct Upscale {
-    width: u32,
-    height: u32,
-    prev: OutputHistory,
-    cur: OutputHistory,
-}
+/// `1 / n` for the blend, `n` samples: a table, so that no pixel divides.
+const RECIP_LEN: usize = 258;
 
-/// What the current frame gives one output pixel.
-struct Current {
-    /// Sum of the samples inside the output pixel, and their number.
-    sum: Vec3,
-    weight: f32,
-    /// Range of the 3x3 render neighbourhood, for the clamp.
-    lo: Vec3,
-    hi: Vec3,
+fn recip_table() -> [f32; RECIP_LEN] {
+    std::array::from_fn(|n| if n == 0 { 1.0 } else { 1.0 / n as f32 })
 }
 
 impl Upscale {
@@ -80,8 +171,13 @@ impl Upscale {
         Upscale {
             width,
             height,
-            prev: OutputHistory::new(n),
-            cur: OutputHistory::new(n),
+            hist: vec![[0.0; 4]; n],
+            next: vec![[0.0; 4]; n],
+            witness: Witness::default(),
+            keep: Vec::new(),
+            px: Vec::new(),
+            complete: vec![RowState::Empty; height as usize],
+            range: Vec::new(),
         }
     }
 
@@ -92,13 +188,20 @@ impl Upscale {
 
     /// Forgets the history: the next frame stands alone.
     pub fn reset(&mut self) {
-        self.prev.meta.fill(Meta::default());
-        self.cur.meta.fill(Meta::default());
+        self.hist.fill([0.0; 4]);
+        self.complete.fill(RowState::Empty);
     }
 
     /// Samples averaged per output pixel after the last call.
     pub fn history_len(&self) -> Vec<f32> {
-        self.prev.meta.iter().map(|m| m.len).collect()
+        self.hist.iter().map(|t| t[3]).collect()
+    }
+
+    /// The output's linear colour after the last call.
+    pub fn color_into(&self, out: &mut [Vec3]) {
+        out.par_iter_mut()
+            .zip(&self.hist)
+            .for_each(|(o, t)| *o = Vec3::new(t[0], t[1], t[2]));
     }
 
     /// Writes the output-size colour into `out` from one rendered frame:
@@ -107,7 +210,7 @@ impl Upscale {
     /// `None`: the frames are not to be averaged (unjittered, or already
     /// accumulated by the renderer), so the history is dropped and `out` is
     /// the frame interpolated. `surface` holds the denoiser's disocclusion
-    /// tolerances.
+    /// tolerance.
     #[allow(clippy::too_many_arguments)]
     pub fn resolve(
         &mut self,
@@ -119,6 +222,50 @@ impl Upscale {
         surface: &DenoiseSettings,
         out: &mut [Vec3],
     ) {
+        let ow = self.width as usize;
+        assert_eq!(
+            out.len(),
+            ow * self.height as usize,
+            "upscale: out holds the output size"
+        );
+        self.resolve_rows(
+            guide,
+            color,
+            jitter,
+            motion,
+            settings,
+            surface,
+            out.par_chunks_mut(ow.max(1)),
+            |row: &mut &mut [Vec3], texels: &[Texel], _| {
+                for (o, t) in row.iter_mut().zip(texels) {
+                    *o = Vec3::new(t[0], t[1], t[2]);
+                }
+            },
+        );
+    }
+
+    /// [`Upscale::resolve`], handing each finished output row (its
+    /// `[r, g, b, len]` texels) to `emit` with the matching item of `rows`
+    /// (one per output row, e.g. the window's pixel rows), on the thread
+    /// that wrote it, while it is in cache. The flag says whether the row
+    /// may differ from the last call's: a still camera leaves the rows no
+    /// sample landed in as they were, and a caller that keeps what it made
+    /// of them may skip them.
+    #[allow(clippy::too_many_arguments)]
+    pub fn resolve_rows<R, E>(
+        &mut self,
+        guide: &GuideBuffers,
+        color: &[Vec3],
+        jitter: Vec2,
+        motion: Option<CameraMotion>,
+        settings: &ResolveSettings,
+        surface: &DenoiseSettings,
+        rows: R,
+        emit: E,
+    ) where
+        R: IndexedParallelIterator,
+        E: Fn(&mut R::Item, &[Texel], bool) + Sync,
+    {
         let (rw, rh) = (guide.width as usize, guide.height as usize);
         let rn = rw * rh;
         assert!(
@@ -132,8 +279,8 @@ impl Upscale {
             "upscale: every render buffer must hold width * height pixels"
         );
         let (ow, oh) = (self.width as usize, self.height as usize);
-        assert_eq!(out.len(), ow * oh, "upscale: out holds the output size");
-        if rn == 0 || out.is_empty() {
+        assert_eq!(rows.len(), oh, "upscale: one output row each");
+        if rn == 0 || ow * oh == 0 {
             return;
         }
         if motion.is_none() {
@@ -144,228 +291,476 @@ impl Upscale {
         } else {
             Vec2::splat(0.5)
         };
-        // Render pixels per output pixel, and the inverse.
-        let scale = Vec2::new(rw as f32 / ow as f32, rh as f32 / oh as f32);
-        let inv = Vec2::ONE / scale;
-        // Samples per output pixel per frame, to count the caps in frames.
-        let per_frame = scale.x * scale.y;
+        let (mx, my) = Map::of((rw, rh), (ow, oh));
+        let (ax, ay) = (
+            Axis::new(ow, rw, jitter.x, mx),
+            Axis::new(oh, rh, jitter.y, my),
+        );
+        // A moving camera's cap counts frames (how far back the history
+        // reaches: samples per output pixel per frame times frames); a
+        // still camera's counts samples, so that every scale converges to
+        // the box filter of as many samples as the full-size resolve
+        // averages.
+        let per_frame = (rw * rh) as f32 / (ow * oh) as f32;
         let cap = match motion {
-            Some(CameraMotion::Moved) => settings.max_history_moving,
-            _ => settings.max_history_still,
+            Some(CameraMotion::Moved) => settings.max_history_moving.max(1) as f32 * per_frame,
+            _ => settings.max_history_still.max(1) as f32,
         }
-        .max(1) as f32
-            * per_frame;
-        let clamp = settings.clamp && motion == Some(CameraMotion::Moved);
-        let prev = &self.prev;
-        let cur = &mut self.cur;
-        (
-            cur.color.par_chunks_mut(ow),
-            cur.meta.par_chunks_mut(ow),
-            out.par_chunks_mut(ow),
-        )
-            .into_par_iter()
-            .enumerate()
-            .for_each(|(oy, (out_c, out_m, shown))| {
-                for ox in 0..ow {
-                    let o = oy * ow + ox;
-                    let centre = Vec2::new(ox as f32 + 0.5, oy as f32 + 0.5);
-                    // The output centre in render pixels, and the render
-                    // pixel whose sample lies nearest it: the best witness
-                    // of the surface there (the pixel under the centre may
-                    // have sampled another surface up to a pixel away).
-                    let r = centre * scale;
-                    let nearest =
-                        |r: f32, j: f32, n: usize| ((r - j + 0.5).max(0.0) as usize).min(n - 1);
-                    let (ix, iy) = (nearest(r.x, jitter.x, rw), nearest(r.y, jitter.y, rh));
-                    let i = iy * rw + ix;
-                    let here = Pixel::of(guide, i);
-                    let same = |j: usize| on_surface(guide, j, &here, surface);
-                    let now = current(
-                        color,
-                        (rw, rh),
-                        (ix, iy),
-                        r,
-                        jitter,
-                        inv,
-                        clamp.then_some(&same as &dyn Fn(usize) -> bool),
-                    );
-                    let hist = match motion {
-                        None => None,
-                        Some(CameraMotion::Still) => {
-                            let m = &prev.meta[o];
-                            (m.len > 0.0).then(|| (prev.color[o], m.len))
-                        }
-                        Some(CameraMotion::Moved)
-                            if here.meta.depth > 0.0 && guide.prev_valid[i] =>
-                        {
-                            let motion =
-                                guide.prev_pixel[i] - Vec2::new(ix as f32 + 0.5, iy as f32 + 0.5);
-                            reprojected(prev, centre + motion * inv, (ow, oh), &here, surface).map(
-                                |(c, len)| {
-                                    let c = if clamp { c.clamp(now.lo, now.hi) } else { c };
-                                    (c, len)
-                                },
-                            )
-                        }
-                        Some(CameraMotion::Moved) => None,
-                    };
-                    let (c, len) = match hist {
-                        Some((h, len)) if now.weight > 0.0 => {
-                            let len = (len + now.weight).min(cap).max(now.weight);
-                            let a = (now.weight / len).min(1.0);
-                            (h + (now.sum / now.weight - h) * a, len)
-                        }
-                        // No sample this frame: the history as it is (its
-                        // length within this frame's cap).
-                        Some((h, len)) => (h, len.min(cap)),
-                        None if now.weight > 0.0 => (now.sum / now.weight, now.weight),
-                        None => (
-                            interpolated(color, (rw, rh), r - jitter + 0.5, i, &same),
-                            0.0,
-                        ),
-                    };
-                    out_c[ox] = c;
-                    shown[ox] = c;
-                    out_m[ox] = Meta { len, ..here.meta };
-                }
-            });
-        std::mem::swap(&mut self.prev, &mut self.cur);
-    }
-}
-
-/// The current frame's samples inside the output pixel centred at `r` (in
-/// render pixels): render pixel `k`'s sample lies at `k + jitter`. The
-/// pixel is half-open, `[-0.5, 0.5)` output pixels about its centre, so a
-/// sample on a boundary belongs to exactly one pixel. `range`: also the
-/// range of the 3x3 neighbours it accepts (only the clamp needs it; the
-/// centre `(ix, iy)` always counts), so that a history cut back to it keeps
-/// nothing of another surface (a light's edge, a silhouette).
-#[inline]
-fn current(
-    color: &[Vec3],
-    (rw, rh): (usize, usize),
-    (ix, iy): (usize, usize),
-    r: Vec2,
-    jitter: Vec2,
-    inv: Vec2,
-    range: Option<&dyn Fn(usize) -> bool>,
-) -> Current {
-    let mut now = Current {
-        sum: Vec3::ZERO,
-        weight: 0.0,
-        lo: Vec3::ZERO,
-        hi: Vec3::ZERO,
-    };
-    let inside = |k: usize, j: f32, r: f32, inv: f32| {
-        let d = (k as f32 + j - r) * inv;
-        (-0.5..0.5).contains(&d)
-    };
-    let (rows, cols) = (
-        iy.saturating_sub(1)..(iy + 2).min(rh),
-        ix.saturating_sub(1)..(ix + 2).min(rw),
-    );
-    for ny in rows.clone().filter(|&y| inside(y, jitter.y, r.y, inv.y)) {
-        for nx in cols.clone().filter(|&x| inside(x, jitter.x, r.x, inv.x)) {
-            now.sum += sanitize(color[ny * rw + nx]);
-            now.weight += 1.0;
+        .min((RECIP_LEN - 2) as f32);
+        let blend = Blend {
+            cap,
+            inv_cap: 1.0 / cap,
+            recip: recip_table(),
+        };
+        if motion == Some(CameraMotion::Moved) {
+            self.fill_range(guide, color, surface, settings.clamp);
+            self.fill_keep(guide, surface, (mx, my));
         }
-    }
-    if let Some(accepts) = range {
-        let centre = sanitize(color[iy * rw + ix]);
-        (now.lo, now.hi) = (centre, centre);
-        for ny in rows {
-            for nx in cols.clone() {
-                let j = ny * rw + nx;
-                if accepts(j) {
-                    let c = sanitize(color[j]);
-                    now.lo = now.lo.min(c);
-                    now.hi = now.hi.max(c);
-                }
+        self.px.resize(rn, [0.0; 4]);
+        self.px.par_iter_mut().enumerate().for_each(|(i, p)| {
+            let c = sanitize(color[i]);
+            *p = [c.x, c.y, c.z, surface_depth(guide.depth[i])];
+        });
+        let frame = Current {
+            px: &self.px,
+            tolerance: surface.depth_tolerance,
+            rw,
+            ax: &ax,
+            ay: &ay,
+        };
+        match motion {
+            Some(CameraMotion::Moved) => {
+                let moved = Moved {
+                    guide,
+                    inv: my.a,
+                    range: &self.range,
+                    keep: &self.keep,
+                    prev: &self.hist,
+                    size: (ow, oh),
+                };
+                (
+                    self.next.par_chunks_mut(ow),
+                    self.complete.par_iter_mut(),
+                    rows,
+                )
+                    .into_par_iter()
+                    .enumerate()
+                    .for_each(|(oy, (texels, complete, mut item))| {
+                        *complete = if moved.row(&frame, &blend, oy, texels) {
+                            RowState::Complete
+                        } else {
+                            RowState::Filled
+                        };
+                        emit(&mut item, texels, true);
+                    });
+                std::mem::swap(&mut self.hist, &mut self.next);
+            }
+            _ => {
+                (
+                    self.hist.par_chunks_mut(ow),
+                    self.complete.par_iter_mut(),
+                    rows,
+                )
+                    .into_par_iter()
+                    .enumerate()
+                    .for_each(|(oy, (texels, complete, mut item))| {
+                        let changed = still_row(&frame, &blend, oy, texels, complete);
+                        emit(&mut item, texels, changed);
+                    });
             }
         }
+        self.witness.keep(guide, jitter, (mx, my));
     }
-    now
+
+    /// Whether each render pixel keeps its history (`keep`).
+    fn fill_keep(&mut self, guide: &GuideBuffers, surface: &DenoiseSettings, (mx, my): (Map, Map)) {
+        let witness = &self.witness;
+        self.keep.resize(guide.depth.len(), false);
+        self.keep.par_iter_mut().enumerate().for_each(|(i, k)| {
+            let p = guide.prev_pixel[i];
+            *k = guide.prev_valid[i]
+                && surface_depth(guide.depth[i]) > 0.0
+                && same(
+                    guide,
+                    witness,
+                    surface,
+                    i,
+                    Vec2::new(mx.a * p.x + mx.b, my.a * p.y + my.b),
+                );
+        });
+    }
+
+    /// The range of each render pixel's sanitised colour over its 3x3
+    /// neighbours on its surface (`on_surface`), so that a history cut
+    /// back to it keeps nothing of another surface (a light's edge, a
+    /// silhouette); a wide range, i.e. no clamp, when `clamp` is off.
+    fn fill_range(
+        &mut self,
+        guide: &GuideBuffers,
+        color: &[Vec3],
+        surface: &DenoiseSettings,
+        clamp: bool,
+    ) {
+        let (rw, rh) = (guide.width as usize, guide.height as usize);
+        self.range.resize(rw * rh, [Vec3::ZERO; 2]);
+        if !clamp {
+            self.range.fill([Vec3::ZERO, Vec3::splat(f32::MAX)]);
+            return;
+        }
+        self.range
+            .par_chunks_mut(rw)
+            .enumerate()
+            .for_each(|(y, row)| {
+                let rows = y.saturating_sub(1)..(y + 2).min(rh);
+                for (x, r) in row.iter_mut().enumerate() {
+                    let i = y * rw + x;
+                    let c = sanitize(color[i]);
+                    let (mut lo, mut hi) = (c, c);
+                    for ny in rows.clone() {
+                        for nx in x.saturating_sub(1)..(x + 2).min(rw) {
+                            let j = ny * rw + nx;
+                            if on_surface(guide, i, j, surface) {
+                                let c = sanitize(color[j]);
+                                lo = lo.min(c);
+                                hi = hi.max(c);
+                            }
+                        }
+                    }
+                    *r = [lo, hi];
+                }
+            });
+    }
 }
 
-/// Bilinear interpolation of the frame at `at` (continuous render pixel
-/// coordinates with the samples at +0.5) over the taps on the output
-/// pixel's surface (`accepts`), so no light or colour is carried across a
-/// depth or normal edge; taps off the frame are left out, and pixel
-/// `fallback` (the nearest sample's pixel) stands in where none is left.
-#[inline]
-fn interpolated(
-    color: &[Vec3],
-    (rw, rh): (usize, usize),
-    at: Vec2,
-    fallback: usize,
-    accepts: &dyn Fn(usize) -> bool,
-) -> Vec3 {
-    let Some(taps) = bilinear_taps(at, rw as u32, rh as u32) else {
-        return sanitize(color[fallback]);
-    };
-    let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
-    for (j, wt) in taps.into_iter().flatten().filter(|&(j, _)| accepts(j)) {
-        sum += sanitize(color[j]) * wt;
-        wsum += wt;
-    }
-    if wsum > 1e-6 {
-        sum / wsum
-    } else {
-        sanitize(color[fallback])
+/// The equal-weight blend of a sample into a history, capped.
+struct Blend {
+    cap: f32,
+    inv_cap: f32,
+    recip: [f32; RECIP_LEN],
+}
+
+impl Blend {
+    /// History `h` of `len` samples and a sample `c` of weight `w` (0 or
+    /// 1): the new average and length. The weight `w / min(len + w, cap)`
+    /// is `w * max(1 / (len + w), 1 / cap)`, the first from the table (a
+    /// fractional length rounds down: a slightly smaller weight), and at
+    /// most 1 (a cap below one sample, a short history at a small scale,
+    /// takes the sample alone).
+    #[inline(always)]
+    fn apply(&self, h: Texel, c: Vec3, w: f32) -> Texel {
+        let n = h[3] + w;
+        let k = (n as usize).min(RECIP_LEN - 1);
+        let a = w * self.recip[k].max(self.inv_cap).min(1.0);
+        [
+            h[0] + (c.x - h[0]) * a,
+            h[1] + (c.y - h[1]) * a,
+            h[2] + (c.z - h[2]) * a,
+            n.min(self.cap).max(w),
+        ]
     }
 }
 
-/// Whether render pixel `j` shows the surface of `here` (the render pixel
-/// whose sample lies nearest an output pixel's centre): both no surface (a light, the
-/// background), or both a surface within the denoiser's depth, tangent
-/// plane and normal tolerances.
-#[inline]
-fn on_surface(guide: &GuideBuffers, j: usize, here: &Pixel, s: &DenoiseSettings) -> bool {
-    let (d, dj) = (here.meta.depth, guide.depth[j]);
-    let surface = dj > 0.0 && dj.is_finite();
-    if d <= 0.0 {
-        return !surface;
-    }
-    surface
-        && (dj - d).abs() <= s.depth_tolerance * d
-        && here.normal.dot(guide.position[j] - here.meta.pos).abs() <= s.plane_tolerance * d
-        && guide.normal[j].dot(here.normal) >= s.min_normal_dot
+/// The current frame as the output pass reads it.
+struct Current<'a> {
+    /// The render pixels' sanitised colours and depths (0: no surface), and
+    /// the relative depth tolerance of "the same surface".
+    px: &'a [[f32; 4]],
+    tolerance: f32,
+    rw: usize,
+    ax: &'a Axis,
+    ay: &'a Axis,
 }
 
-/// Bilinear fetch of the previous output at `at` (output pixels), each tap
-/// validated like the denoiser's; `None` where disoccluded or where the
-/// analytic `U` changed (a glossy reflection that moved with the view, as
-/// the full-size resolve tests it).
-#[inline]
-fn reprojected(
-    prev: &OutputHistory,
-    at: Vec2,
-    (ow, oh): (usize, usize),
-    here: &Pixel,
-    s: &DenoiseSettings,
-) -> Option<(Vec3, f32)> {
-    let taps = bilinear_taps(at, ow as u32, oh as u32)?;
-    let (d, pos) = (here.meta.depth, here.meta.pos);
-    let (mut wsum, mut c, mut len) = (0.0f32, Vec3::ZERO, 0.0f32);
-    let (mut lu, mut lu_diffuse) = (0.0f32, 0.0f32);
-    for (j, wt) in taps.into_iter().flatten() {
-        let m = &prev.meta[j];
-        if same_surface(m, d, pos, here.normal, s) {
+impl Current<'_> {
+    /// The sample landing in output pixel (ox, oy) of a row whose sample
+    /// row is `ky`, and its weight (0: none; the colour is then unused).
+    #[inline(always)]
+    fn sample(&self, ky: u32, ox: usize) -> (Vec3, f32) {
+        let kx = self.ax.sample[ox];
+        let hit = kx != NONE && ky != NONE;
+        let i = if hit {
+            ky as usize * self.rw + kx as usize
+        } else {
+            0
+        };
+        let p = self.px[i];
+        (Vec3::new(p[0], p[1], p[2]), if hit { 1.0 } else { 0.0 })
+    }
+
+    /// The bilinear interpolation of the frame at the output pixel's
+    /// centre over the taps on the surface of the render pixel whose sample
+    /// lies nearest it (by depth: no light or colour carried across a
+    /// silhouette, nor between a light and a wall); that pixel alone where
+    /// no tap is.
+    #[inline]
+    fn interpolated(&self, ox: usize, oy: usize) -> Vec3 {
+        let (x0, x1, fx) = self.ax.taps[ox];
+        let (y0, y1, fy) = self.ay.taps[oy];
+        let here = self.px[self.ay.nearest[oy] as usize * self.rw + self.ax.nearest[ox] as usize];
+        let d = here[3];
+        let tol = self.tolerance * d;
+        let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
+        for (x, y, wt) in [
+            (x0, y0, (1.0 - fx) * (1.0 - fy)),
+            (x1, y0, fx * (1.0 - fy)),
+            (x0, y1, (1.0 - fx) * fy),
+            (x1, y1, fx * fy),
+        ] {
+            let q = self.px[y as usize * self.rw + x as usize];
+            let dj = q[3];
+            let same = if d == 0.0 {
+                dj == 0.0
+            } else {
+                dj > 0.0 && (dj - d).abs() <= tol
+            };
+            // A weight of 0 off the surface instead of a branch.
+            let wt = if same { wt } else { 0.0 };
+            sum += Vec3::new(q[0], q[1], q[2]) * wt;
             wsum += wt;
-            c += prev.color[j] * wt;
-            len += m.len * wt;
-            lu += m.lu * wt;
-            lu_diffuse += m.lu_diffuse * wt;
+        }
+        if wsum > 1e-6 {
+            sum / wsum
+        } else {
+            Vec3::new(here[0], here[1], here[2])
         }
     }
-    if wsum < 1e-3 {
-        return None;
+}
+
+/// A depth as the surface tests read it: 0 for no surface (or a value
+/// that is not a depth).
+#[inline(always)]
+fn surface_depth(d: f32) -> f32 {
+    if d.is_finite() && d > 0.0 { d } else { 0.0 }
+}
+
+/// What an output row's pixels with no sample (length 0) show.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RowState {
+    /// Nothing yet (after a reset): they need the interpolated frame.
+    Empty,
+    /// The interpolated frame of an earlier frame of this still view (a
+    /// placeholder until a sample lands; not refreshed, which would cost a
+    /// pass over the row each frame for pixels about to be replaced).
+    Filled,
+    /// Every pixel holds a sample.
+    Complete,
+}
+
+/// A still camera's output row, in place: each pixel averages the sample
+/// that landed in it, if any, into its own history. Pixels with no sample
+/// yet show the interpolated frame. Returns whether the row may have
+/// changed.
+fn still_row(
+    frame: &Current,
+    blend: &Blend,
+    oy: usize,
+    texels: &mut [Texel],
+    state: &mut RowState,
+) -> bool {
+    let ky = frame.ay.sample[oy];
+    let changed = ky != NONE || *state == RowState::Empty;
+    if ky != NONE {
+        for (ox, t) in texels.iter_mut().enumerate() {
+            let (c, w) = frame.sample(ky, ox);
+            *t = blend.apply(*t, c, w);
+        }
     }
-    let inv = 1.0 / wsum;
-    let changed = light_changed(
-        (here.meta.lu, here.meta.lu_diffuse),
-        (lu * inv, lu_diffuse * inv),
-        s.u_change,
-    );
-    (!(s.light_test && changed)).then(|| (c * inv, len * inv))
+    *state = match *state {
+        RowState::Empty if fill_empty(frame, oy, texels) => RowState::Complete,
+        RowState::Empty => RowState::Filled,
+        RowState::Filled if ky != NONE && texels.iter().all(|t| t[3] > 0.0) => RowState::Complete,
+        other => other,
+    };
+    changed
+}
+
+/// Pixels with no sample show the interpolated frame (and keep length 0);
+/// returns whether the row had none.
+fn fill_empty(frame: &Current, oy: usize, texels: &mut [Texel]) -> bool {
+    let mut complete = true;
+    for (ox, t) in texels.iter_mut().enumerate() {
+        if t[3] <= 0.0 {
+            let c = frame.interpolated(ox, oy);
+            *t = [c.x, c.y, c.z, 0.0];
+            complete = false;
+        }
+    }
+    complete
+}
+
+/// The last frame's render-size guides, for the next frame's history
+/// test.
+#[derive(Default)]
+struct Witness {
+    width: usize,
+    height: usize,
+    /// Its jitter, and where its render coordinates land on the output.
+    jitter: Vec2,
+    map: (Map, Map),
+    depth: Vec<f32>,
+    position: Vec<Vec3>,
+    normal: Vec<Vec3>,
+    /// Luminance of the analytic `U` and of its diffuse part.
+    lu: Vec<(f32, f32)>,
+}
+
+impl Witness {
+    fn keep(&mut self, g: &GuideBuffers, jitter: Vec2, map: (Map, Map)) {
+        (self.width, self.height) = (g.width as usize, g.height as usize);
+        self.jitter = jitter;
+        self.map = map;
+        self.depth.clear();
+        self.depth.extend(g.depth.iter().map(|&d| surface_depth(d)));
+        self.position.clear();
+        self.position.extend_from_slice(g.position);
+        self.normal.clear();
+        self.normal.extend_from_slice(g.normal);
+        self.lu.clear();
+        self.lu.extend((0..g.u.len()).map(|i| light_of(g, i)));
+    }
+
+    /// The render pixel of the last frame whose sample lay nearest `at`
+    /// (output pixels); `None` before any frame.
+    #[inline(always)]
+    fn nearest(&self, at: Vec2) -> Option<usize> {
+        if self.depth.is_empty() {
+            return None;
+        }
+        let r =
+            Vec2::new(self.map.0.to_render(at.x), self.map.1.to_render(at.y)) - self.jitter + 0.5;
+        let x = r.x.max(0.0).min((self.width - 1) as f32) as usize;
+        let y = r.y.max(0.0).min((self.height - 1) as f32) as usize;
+        Some(y * self.width + x)
+    }
+}
+
+/// What a moving camera's output pass reads besides the frame.
+struct Moved<'a, 'g> {
+    guide: &'a GuideBuffers<'g>,
+    /// Output pixels per render pixel (both axes).
+    inv: f32,
+    range: &'a [[Vec3; 2]],
+    keep: &'a [bool],
+    prev: &'a [Texel],
+    size: (usize, usize),
+}
+
+impl Moved<'_, '_> {
+    /// One output row from the reprojected history; returns whether every
+    /// pixel of it holds a sample.
+    fn row(&self, frame: &Current, blend: &Blend, oy: usize, texels: &mut [Texel]) -> bool {
+        let g = self.guide;
+        let ky = frame.ay.sample[oy];
+        let iy = frame.ay.nearest[oy] as usize;
+        let mut complete = true;
+        for (ox, t) in texels.iter_mut().enumerate() {
+            let ix = frame.ax.nearest[ox] as usize;
+            let i = iy * frame.rw + ix;
+            let (c, w) = frame.sample(ky, ox);
+            let hist = if self.keep[i] {
+                let centre = Vec2::new(ox as f32 + 0.5, oy as f32 + 0.5);
+                let k = Vec2::new(ix as f32 + 0.5, iy as f32 + 0.5);
+                self.reprojected(centre + (g.prev_pixel[i] - k) * self.inv)
+            } else {
+                None
+            };
+            *t = match hist {
+                Some(h) => {
+                    let [lo, hi] = self.range[i];
+                    let hc = Vec3::new(h[0], h[1], h[2]).clamp(lo, hi);
+                    blend.apply([hc.x, hc.y, hc.z, h[3].min(blend.cap)], c, w)
+                }
+                None if w > 0.0 => [c.x, c.y, c.z, 1.0],
+                None => {
+                    complete = false;
+                    let c = frame.interpolated(ox, oy);
+                    [c.x, c.y, c.z, 0.0]
+                }
+            };
+        }
+        complete
+    }
+
+    /// Bilinear fetch of the previous output at `at` (output pixels) over
+    /// the taps that hold samples; `None` where none does.
+    #[inline]
+    fn reprojected(&self, at: Vec2) -> Option<Texel> {
+        let (mut wsum, mut sum) = (0.0f32, [0.0f32; 4]);
+        let mut tap = |j: usize, wt: f32| {
+            let h = self.prev[j];
+            // A weight of 0 for an empty tap instead of a branch.
+            let wt = if h[3] > 0.0 { wt } else { 0.0 };
+            wsum += wt;
+            for (s, v) in sum.iter_mut().zip(h) {
+                *s += v * wt;
+            }
+        };
+        let (ow, oh) = self.size;
+        let p = at - 0.5;
+        let f = p.floor();
+        if f.x >= 0.0 && f.y >= 0.0 && f.x + 1.0 < ow as f32 && f.y + 1.0 < oh as f32 {
+            // Inside the output: the four taps without bounds tests.
+            let (fx, fy) = (p.x - f.x, p.y - f.y);
+            let j = f.y as usize * ow + f.x as usize;
+            tap(j, (1.0 - fx) * (1.0 - fy));
+            tap(j + 1, fx * (1.0 - fy));
+            tap(j + ow, (1.0 - fx) * fy);
+            tap(j + ow + 1, fx * fy);
+        } else {
+            let taps = bilinear_taps(at, ow as u32, oh as u32)?;
+            for (j, wt) in taps.into_iter().flatten() {
+                tap(j, wt);
+            }
+        }
+        if wsum < 1e-3 {
+            return None;
+        }
+        let inv = 1.0 / wsum;
+        Some(sum.map(|s| s * inv))
+    }
+}
+
+/// Whether the history at `at` (output pixels, last frame) shows the
+/// surface and light of render pixel `i`: its witness passes the
+/// denoiser's disocclusion test and shows the same light (`light_changed`,
+/// as the full-size resolve tests it).
+#[inline]
+fn same(g: &GuideBuffers, w: &Witness, s: &DenoiseSettings, i: usize, at: Vec2) -> bool {
+    let Some(j) = w.nearest(at) else {
+        return false;
+    };
+    let (d, dj) = (g.depth[i], w.depth[j]);
+    let n = g.normal[i];
+    let surface = dj > 0.0
+        && (dj - d).abs() <= s.depth_tolerance * d
+        && n.dot(w.position[j] - g.position[i]).abs() <= s.plane_tolerance * d
+        && w.normal[j].dot(n) >= s.min_normal_dot;
+    surface && !(s.light_test && light_changed(light_of(g, i), w.lu[j], s.u_change))
+}
+
+/// Luminance of render pixel `i`'s analytic `U` and of its diffuse part:
+/// the light test's witnesses (the diffuse part, where it carries a fair
+/// share, does not change when only the camera moves).
+#[inline]
+fn light_of(g: &GuideBuffers, i: usize) -> (f32, f32) {
+    let lu = luminance(g.u[i]);
+    let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
+    let share = g.lobe.get(i).map_or(0.0, |l| l.share);
+    (lu, lu * (1.0 - share))
+}
+
+/// Whether render pixel `j` shows the surface of render pixel `i`: both no
+/// surface (a light, the background), or both a surface within the
+/// denoiser's depth, tangent plane and normal tolerances.
+#[inline]
+fn on_surface(guide: &GuideBuffers, i: usize, j: usize, s: &DenoiseSettings) -> bool {
+    let (d, dj) = (surface_depth(guide.depth[i]), surface_depth(guide.depth[j]));
+    if d == 0.0 {
+        return dj == 0.0;
+    }
+    let n = guide.normal[i];
+    dj > 0.0
+        && (dj - d).abs() <= s.depth_tolerance * d
+        && n.dot(guide.position[j] - guide.position[i]).abs() <= s.plane_tolerance * d
+        && guide.normal[j].dot(n) >= s.min_normal_dot
 }

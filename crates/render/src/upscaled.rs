@@ -11,6 +11,7 @@ use super::world::World;
 use glam::Vec3;
 use penumbra_denoise::{CameraMotion, DenoiseSettings, ResolveSettings, Upscale};
 use penumbra_scene::{Camera, Light};
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// The render size for an output of `width` x `height` at `scale` of each
@@ -43,7 +44,8 @@ pub fn render_frame(
 }
 
 /// The linear radiance shown: `target`'s output when there is one, else
-/// the frame's.
+/// the frame's. (After [`Upscaled::render_rows`], call
+/// [`Upscaled::linear`] first.)
 pub fn shown<'a>(frame: &'a Frame, target: Option<&'a Upscaled>) -> &'a [Vec3] {
     target.map_or(&frame.color, |t| &t.color)
 }
@@ -52,12 +54,14 @@ pub fn shown<'a>(frame: &'a Frame, target: Option<&'a Upscaled>) -> &'a [Vec3] {
 /// output's colour. The frame itself stays its owner's, at the render size.
 pub struct Upscaled {
     upscale: Upscale,
-    /// The output's linear radiance.
+    /// The output's linear radiance (after [`Upscaled::render`]).
     pub color: Vec<Vec3>,
     prev_camera: Option<Camera>,
     /// The previous frame's lights: new lights drop the output history as
     /// they drop the frame's.
     prev_lights: Vec<Light>,
+    /// Seconds of the last frame's output pass (upscale and `emit`).
+    pub upscale_seconds: f64,
 }
 
 impl Upscaled {
@@ -68,6 +72,7 @@ impl Upscaled {
             color: vec![Vec3::ZERO; width as usize * height as usize],
             prev_camera: None,
             prev_lights: Vec::new(),
+            upscale_seconds: 0.0,
         }
     }
 
@@ -92,6 +97,43 @@ impl Upscaled {
         camera: &Camera,
         settings: &RenderSettings,
     ) -> PhaseTimes {
+        let mut color = std::mem::take(&mut self.color);
+        let ow = self.output_size().0 as usize;
+        let times = self.render_rows(
+            frame,
+            world,
+            camera,
+            settings,
+            color.par_chunks_mut(ow.max(1)),
+            |row: &mut &mut [Vec3], texels: &[Texel], _| {
+                for (o, t) in row.iter_mut().zip(texels) {
+                    *o = Vec3::new(t[0], t[1], t[2]);
+                }
+            },
+        );
+        self.color = color;
+        times
+    }
+
+    /// [`Upscaled::render`], but each finished output row goes to `emit`
+    /// (with the matching item of `rows`, and whether it may have changed:
+    /// `Upscale::resolve_rows`) instead of `color`, in the same pass: the
+    /// viewer's display transform. `color` is left as it was
+    /// ([`Upscaled::linear`] fills it). `upscale_seconds` holds the time of
+    /// the output pass, `emit` included.
+    pub fn render_rows<R, E>(
+        &mut self,
+        frame: &mut Frame,
+        world: &World,
+        camera: &Camera,
+        settings: &RenderSettings,
+        rows: R,
+        emit: E,
+    ) -> PhaseTimes
+    where
+        R: IndexedParallelIterator,
+        E: Fn(&mut R::Item, &[Texel], bool) + Sync,
+    {
         let settings = RenderSettings {
             upscaled: true,
             ..*settings
@@ -109,22 +151,35 @@ impl Upscaled {
                 CameraMotion::Moved
             }
         });
-        self.upscale.resolve(
+        self.upscale.resolve_rows(
             &frame.guides(),
             &frame.color,
             frame.jitter,
             motion,
             &ResolveSettings::default(),
             &DenoiseSettings::default(),
-            &mut self.color,
+            rows,
+            emit,
         );
         self.prev_camera = Some(*camera);
         let upscale = t.elapsed().as_secs_f64();
+        self.upscale_seconds = upscale;
         times.resolve += upscale;
         times.wall += upscale;
         times
     }
+
+    /// The output's linear radiance after the last frame (whichever way it
+    /// was rendered).
+    pub fn linear(&mut self) -> &[Vec3] {
+        self.upscale.color_into(&mut self.color);
+        &self.color
+    }
 }
+
+/// One output pixel's upscaled history: linear `r, g, b` and the samples
+/// averaged.
+pub type Texel = [f32; 4];
 
 #[cfg(test)]
 mod tests {

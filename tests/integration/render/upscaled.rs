@@ -23,12 +23,24 @@ fn upscaled_frames(
     scale: f32,
     cameras: &[Camera],
 ) -> Vec<Vec<Vec3>> {
+    upscaled_frames_at(scene, settings, threads, (WIDTH, HEIGHT), scale, cameras)
+}
+
+/// [`upscaled_frames`] for an output of another size.
+fn upscaled_frames_at(
+    scene: &Scene,
+    settings: &RenderSettings,
+    threads: usize,
+    (width, height): (u32, u32),
+    scale: f32,
+    cameras: &[Camera],
+) -> Vec<Vec<Vec3>> {
     let device = Device::new().expect("Embree starts");
     let world = World::build(&device, scene.clone()).expect("scene builds");
     let pool = embree::thread_pool(threads).expect("thread pool");
-    let (rw, rh) = scaled_size(WIDTH, HEIGHT, scale);
+    let (rw, rh) = scaled_size(width, height, scale);
     let mut frame = Frame::new(rw, rh);
-    let mut out = Upscaled::new(WIDTH, HEIGHT);
+    let mut out = Upscaled::new(width, height);
     pool.install(|| {
         cameras
             .iter()
@@ -159,4 +171,90 @@ fn a_camera_move_leaves_no_ghost_in_the_upscaled_output_beyond_a_few_frames() {
         e_moved <= GHOST_FACTOR * e_fresh,
         "{GHOST_FRAMES} frames after the move relMSE {e_moved:.3e}, a fresh start {e_fresh:.3e}"
     );
+}
+
+/// The default frame (denoised ratio) of a still camera, upscaled from
+/// each of `SCALES`, against a reference of the full-size output: its
+/// relMSE falls with frames, and after `CONVERGE_FRAMES` frames it is
+/// within `CONVERGE_BOUND` of the full-size frames' after as many samples
+/// per output pixel (`CONVERGE_FRAMES` times the scale squared frames).
+/// What is left above 1 is what averaging the denoised ratio of the small
+/// frame a second time costs (docs/interactive.md). Measured on the
+/// interior pixels (away from silhouettes and the lights' own pixels, whose
+/// few samples at a small scale are outliers of a different kind).
+const SCALES: [f32; 2] = [0.5, 0.25];
+const CONVERGE_FRAMES: usize = 64;
+const CONVERGE_BOUND: f64 = 1.5;
+const REFERENCE_SPP: u32 = 128;
+/// The output: at a quarter scale the render is 80x45, a size the
+/// denoiser still works at.
+const CONVERGE_SIZE: (u32, u32) = (320, 180);
+
+#[test]
+fn a_still_cameras_upscaled_default_frames_converge_towards_the_full_size_reference() {
+    let scene = load("room.toml");
+    let device = Device::new().expect("Embree starts");
+    let world = World::build(&device, scene.clone()).expect("scene builds");
+    let pool = embree::thread_pool(2).expect("thread pool");
+    let (w, h) = CONVERGE_SIZE;
+    let mut reference = Frame::new(w, h);
+    pool.install(|| {
+        for _ in 0..REFERENCE_SPP / 8 {
+            let s = RenderSettings {
+                mode: Mode::Reference,
+                spp: 8,
+                seed: 0x5eed,
+                denoise: false,
+                ..RenderSettings::default()
+            };
+            reference.render(&world, &scene.camera, &s);
+        }
+    });
+    let truth = reference.color;
+    let inside = interior(w, h, &reference.gbuf);
+    let settings = RenderSettings::default();
+    let mut full = Frame::new(w, h);
+    let full_errors: Vec<f64> = pool.install(|| {
+        (0..CONVERGE_FRAMES)
+            .map(|_| {
+                full.render(&world, &scene.camera, &settings);
+                rel_mse_masked(&full.color, &truth, &inside)
+            })
+            .collect()
+    });
+    let checkpoints = [1, 4, 16, CONVERGE_FRAMES];
+    for scale in SCALES {
+        let frames = upscaled_frames_at(
+            &scene,
+            &settings,
+            2,
+            CONVERGE_SIZE,
+            scale,
+            &[scene.camera; CONVERGE_FRAMES],
+        );
+        let e: Vec<f64> = checkpoints
+            .iter()
+            .map(|&k| rel_mse_masked(&frames[k - 1], &truth, &inside))
+            .collect();
+        let shown: Vec<String> = e.iter().map(|x| format!("{x:.3e}")).collect();
+        let same_samples = ((CONVERGE_FRAMES as f32 * scale * scale).round() as usize).max(1);
+        let e_full = full_errors[same_samples - 1];
+        println!(
+            "room {w}x{h}, default frame upscaled from scale {scale}, interior relMSE \
+             against \
+             {REFERENCE_SPP} spp after {checkpoints:?} frames: {shown:?}; full size after \
+             {same_samples} frames (as many samples): {e_full:.3e}, after {CONVERGE_FRAMES}: \
+             {:.3e}",
+            full_errors[CONVERGE_FRAMES - 1]
+        );
+        for w in e.windows(2) {
+            assert!(w[1] < w[0], "scale {scale}: relMSE rose {shown:?}");
+        }
+        let last = e[e.len() - 1];
+        assert!(
+            last <= CONVERGE_BOUND * e_full,
+            "scale {scale}: after {CONVERGE_FRAMES} frames {last:.3e}, full size after \
+             {same_samples} {e_full:.3e}"
+        );
+    }
 }
