@@ -7,7 +7,9 @@ use super::ceiling::{Ceiling, ray_ceiling};
 use super::machine::{Machine, git_revision};
 use super::reference::{self, Reference};
 use super::results::*;
-use super::stats::{Spread, interior, interpolate_log_log, median, rel_mse, rel_mse_masked};
+use super::stats::{
+    Spread, interior_of_view, interpolate_log_log, median, rel_mse, rel_mse_masked,
+};
 use crate::embree::{self, Device};
 use crate::render::shadow::PacketWidth;
 use crate::render::{
@@ -440,15 +442,7 @@ fn bench_scene(
             subset,
         )
     })?;
-    let mask = {
-        let mut f = Frame::new(opts.width, opts.height);
-        let s = RenderSettings {
-            mode: Mode::Unshadowed,
-            ..RenderSettings::default()
-        };
-        all.install(|| f.render(&world, &camera, &s));
-        interior(opts.width, opts.height, &f.gbuf)
-    };
+    let mask = interior_of_view(&world, &camera, (opts.width, opts.height), &all);
 
     let mut ceilings: Vec<CeilingReport> = Vec::new();
     let mut ceiling_for = |spp: u32, pool: &rayon::ThreadPool, t: usize| -> f64 {

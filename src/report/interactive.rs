@@ -16,7 +16,7 @@
 //!   their own camera.
 
 use super::reference::{self, Reference};
-use super::stats::{interior, median, rel_mse, rel_mse_masked};
+use super::stats::{interior, interior_of_view, median, rel_mse, rel_mse_masked};
 use crate::denoise::{CameraMotion, DenoiseSettings, ResolveSettings, Upscale};
 use crate::display::DisplayMap;
 use crate::embree::{self, Device};
@@ -246,15 +246,7 @@ fn scene_run(
     })?;
     let pass = output_pass_row(&world, &camera, size, &pool);
     eprintln!("{pass}");
-    let mask = {
-        let mut f = Frame::new(opts.width, opts.height);
-        let s = RenderSettings {
-            mode: Mode::Unshadowed,
-            ..RenderSettings::default()
-        };
-        pool.install(|| f.render(&world, &camera, &s));
-        interior(opts.width, opts.height, &f.gbuf)
-    };
+    let mask = interior_of_view(&world, &camera, (opts.width, opts.height), &pool);
     let settings = RenderSettings::default();
     let paths = [Path_::Full, Path_::Fixed(0.5), Path_::Dynamic];
     let end = opts.still_seconds.iter().copied().fold(0.0, f64::max);

@@ -57,6 +57,24 @@ pub fn shadowed_glossy(
         .collect()
 }
 
+/// `interior` of the G-buffer `world` gives through `camera` at
+/// `width` x `height` (one unshadowed frame traced in `pool`).
+pub fn interior_of_view(
+    world: &crate::render::World,
+    camera: &crate::scene::Camera,
+    (width, height): (u32, u32),
+    pool: &rayon::ThreadPool,
+) -> Vec<bool> {
+    use crate::render::{Frame, Mode, RenderSettings};
+    let mut f = Frame::new(width, height);
+    let s = RenderSettings {
+        mode: Mode::Unshadowed,
+        ..RenderSettings::default()
+    };
+    pool.install(|| f.render(world, camera, &s));
+    interior(width, height, &f.gbuf)
+}
+
 /// Pixels away from geometric edges: the pixel and its 8 neighbours see the
 /// same kind of thing with the same material (in a G-buffer traced at pixel
 /// centres). The reference's box filter blends across edges; comparing
