@@ -242,21 +242,27 @@ trait Streams {
 /// One pixel's streams, hashed when asked.
 struct PixelStreams(SampleStream);
 
+impl PixelStreams {
+    /// Sample `s`'s value in dimension `dim` of this pixel's stream.
+    #[inline(always)]
+    fn at(&self, s: u32, dim: u32) -> f32 {
+        let t = self.0;
+        sample_1d(t.pixel, t.first.wrapping_add(s), dim, t.seed)
+    }
+}
+
 impl Streams for PixelStreams {
     #[inline(always)]
     fn light(&self, s: u32) -> f32 {
-        let t = self.0;
-        sample_1d(t.pixel, t.first.wrapping_add(s), DIM_LIGHT, t.seed)
+        self.at(s, DIM_LIGHT)
     }
     #[inline(always)]
     fn strategy(&self, s: u32) -> f32 {
-        let t = self.0;
-        sample_1d(t.pixel, t.first.wrapping_add(s), DIM_STRATEGY, t.seed)
+        self.at(s, DIM_STRATEGY)
     }
     #[inline(always)]
     fn lobe(&self, s: u32) -> f32 {
-        let t = self.0;
-        sample_1d(t.pixel, t.first.wrapping_add(s), DIM_LOBE, t.seed)
+        self.at(s, DIM_LOBE)
     }
     #[inline(always)]
     fn dir(&self, s: u32) -> Vec2 {
