@@ -468,8 +468,8 @@ impl Kernel for Factors<'_> {
         // baseline, whatever instruction set its caller runs (`isa`).
         let n = self.u.len().min(MAX_VERTICES);
         let mut o = [[Wide::ZERO; 3]; MAX_VERTICES];
-        for i in 0..n {
-            o[i] = unit(&ltc_map(&self.k.ma, &self.u[i]));
+        for (o, u) in o.iter_mut().zip(&self.u[..n]) {
+            *o = unit(&ltc_map(&self.k.ma, u));
         }
         factors(
             &o[..n],
