@@ -480,6 +480,11 @@ pub fn add3<T: Elem, const L: usize>(a: &Vec3Lanes<T, L>, b: &Vec3Lanes<T, L>) -
 }
 
 #[inline(always)]
+pub fn sub3<T: Elem, const L: usize>(a: &Vec3Lanes<T, L>, b: &Vec3Lanes<T, L>) -> Vec3Lanes<T, L> {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline(always)]
 pub fn scale3<T: Elem, const L: usize>(a: &Vec3Lanes<T, L>, s: Lanes<T, L>) -> Vec3Lanes<T, L> {
     [a[0] * s, a[1] * s, a[2] * s]
 }

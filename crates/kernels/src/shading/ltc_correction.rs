@@ -25,16 +25,14 @@
 //! finite, in `[0, MAX_RATIO]`, and 1 for any degenerate input.
 //!
 //! Cost: this runs for every pixel and light, so it is written for speed
-//! rather than reuse: `f32` nodes, two to a register (the factor needs
-//! ~1e-3, not the `f64` the edge sums need; what cancels for a small light
-//! stays `f64`), the exact lobe evaluated with the view's terms hoisted and
-//! its divisions merged (a unit test checks it against `brdf::spec_local`),
+//! rather than reuse: `f32` in the batch's own eight lanes, one pixel per
+//! lane (the factor needs ~1e-3; each triangle's triple product is taken
+//! from its edge vectors, so a small light keeps its relative precision),
+//! the exact lobe evaluated with the view's terms hoisted and its
+//! divisions merged (a unit test checks it against `brdf::spec_local`),
 //! and a rational `atan` for the solid angles (max error 0.005 rad).
 
-// Per pixel, four to a value: half of the batched `U`'s lanes, in `f64`.
-use super::lanes::{
-    Quad as Wide, Quad3 as Wide3, QuadMask as Mask, Vec3Lanes, Wide8, add3, cross, dot, scale3,
-};
+use super::lanes::{Mask, Wide, Wide3, add3, cross, dot, scale3, sub3};
 use super::ltc::{CellLanes, LtcCell};
 use super::polygon::MAX_VERTICES;
 use super::u_batch::ltc_map;
@@ -136,9 +134,12 @@ pub struct Stakes {
 ///   `alpha`: GGX alpha;
 /// - `stakes`: `Stakes` (a, b, diffuse, others) of this pixel and light.
 ///
-/// One pixel through `lobe_factors_lanes` (in lane 0; the batched U runs
-/// `HALF` at a time), so the scalar and batched paths compute the same factor with
-/// the same arithmetic (`f64` where a small light cancels, `f32` nodes).
+/// One pixel in every lane of the batch's correction (lane 0 read back),
+/// so the scalar and batched paths compute the factor with the same
+/// arithmetic. Only the light's image in LTC space is made in `f64` here:
+/// the scalar path takes the pixels whose LTC map is too ill-conditioned
+/// for `f32` (`u_batch::MAX_CONDITION`); the image's unit vectors are
+/// well conditioned whatever the map.
 pub fn lobe_factors(
     poly: &[DVec3],
     cell: &LtcCell,
@@ -181,7 +182,7 @@ struct Pixel<'a> {
     stakes: Stakes,
 }
 
-/// `lobe_factors` of one polygon, in lane 0, as a `Kernel` (`isa`).
+/// `lobe_factors` of one polygon, in every lane, as a `Kernel` (`isa`).
 struct OnePixel<'a> {
     poly: &'a [DVec3],
     p: Pixel<'a>,
@@ -197,26 +198,32 @@ impl Kernel for OnePixel<'_> {
 
 #[inline(always)]
 fn one_pixel(poly: &[DVec3], p: &Pixel) -> (f32, f32) {
-    let k = CorrectionLanes::new(
-        &CellLanes::splat(p.cell),
-        [Vec4::splat(p.wo.x), Vec4::splat(p.wo.z)],
-        Vec4::splat(p.alpha),
-    );
-    let mut u = [[Wide::ZERO; 3]; MAX_VERTICES];
-    for (u, v) in u.iter_mut().zip(poly) {
+    let cells = CellLanes::splat(p.cell);
+    let view = [Vec4::splat(p.wo.x), Vec4::splat(p.wo.z)];
+    let alpha = Vec4::splat(p.alpha);
+    let k = CorrectionLanes::new([(&cells, view, alpha), (&cells, view, alpha)]);
+    let m = k.ma.map(|m| f64::from(m.0[0]));
+    let mut o = [[Wide::ZERO; 3]; MAX_VERTICES];
+    for (o, v) in o.iter_mut().zip(poly) {
         // As the batch's `inv_len`: a vertex at the point stays zero.
         let v = *v / v.length_squared().max(f64::MIN_POSITIVE).sqrt();
-        *u = [Wide::splat(v.x), Wide::splat(v.y), Wide::splat(v.z)];
+        let img = DVec3::new(
+            m[0].mul_add(v.x, m[1] * v.z),
+            v.y,
+            m[2].mul_add(v.x, m[3] * v.z),
+        );
+        let img = img / img.length_squared().max(f64::MIN_POSITIVE).sqrt();
+        *o = [Wide::splat(img.x), Wide::splat(img.y), Wide::splat(img.z)];
     }
     let (a, b) = factors(
-        &u[..poly.len()],
+        &o[..poly.len()],
         None,
         &k,
         Wide::splat(p.share_a),
         Wide::splat(p.share_b),
         &p.stakes,
     );
-    (a.0[0] as f32, b.0[0] as f32)
+    (a.0[0], b.0[0])
 }
 
 /// The correction's per-lane constants for a batch of pixels
@@ -224,73 +231,107 @@ fn one_pixel(poly: &[DVec3], p: &Pixel) -> (f32, f32) {
 /// `lobe_factors` builds them for one pixel.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CorrectionLanes {
-    /// Lobe A's `M^-1` (m00, m02, m20, m22), per pixel in `f64`: it takes
-    /// the light into the space where the nodes are placed.
-    fwd: [Wide; 4],
-    /// Per node (`f32`, each pixel's constant in both halves of `Wide8`:
-    /// two nodes at a time).
-    ma: [Wide8; 4],
-    kda: Wide8,
-    kca: Wide8,
-    mb: [Wide8; 4],
-    kdb: Wide8,
-    kcb: Wide8,
-    /// Lobe A's `M` (the inverse of `fwd`) and `|det M|`: a node's
+    /// Lobe A's `M^-1` (m00, m02, m20, m22): it takes the light into the
+    /// space where the nodes are placed.
+    ma: [Wide; 4],
+    kda: Wide,
+    kca: Wide,
+    mb: [Wide; 4],
+    kdb: Wide,
+    kcb: Wide,
+    /// Lobe A's `M` (the inverse of `ma`) and `|det M|`: a node's
     /// direction and solid angle back in the shading frame.
-    inv: [Wide8; 4],
-    det: Wide8,
-    wox: Wide8,
-    woz: Wide8,
-    a2: Wide8,
-    lo2: Wide8,
-    k: Wide8,
-    /// Per pixel, for the factors.
+    inv: [Wide; 4],
+    det: Wide,
+    wox: Wide,
+    woz: Wide,
+    a2: Wide,
+    lo2: Wide,
+    k: Wide,
+    /// The lobes' magnitudes, for the factors.
     maga: Wide,
     magb: Wide,
 }
 
+/// How many constants `CorrectionLanes` holds per lane.
+const CONSTANTS: usize = 25;
+
 impl CorrectionLanes {
-    /// Lane `l` from its table cell, view `(sin θv, 0, cos θv)` (`wo` =
-    /// its x and z) and GGX alpha. In `f32`, across the lanes, in the
-    /// order of operations of the scalar formulas (so the same values bit
-    /// for bit as one pixel at a time).
+    /// Each half batch (lanes 0-3, 4-7) from its table cells, views
+    /// `(sin θv, 0, cos θv)` (`wo` = their x and z) and GGX alphas. In
+    /// `f32`, four lanes per `Vec4`, in the order of operations of the
+    /// scalar formulas (so the same values bit for bit as one pixel at a
+    /// time).
     #[inline(always)]
-    pub fn new(cells: &CellLanes, [wox, woz]: [Vec4; 2], alpha: Vec4) -> Self {
-        // One division for both lobes' `1 / hmass`.
-        let inv = Vec4::ONE / (Vec4::splat(PI) * cells.hmass() * cells.fhmass());
-        let (ma, kda, kca) = lobe_model(cells.ma(), cells.mag(), cells.mix(), inv * cells.fhmass());
-        let (mb, kdb, kcb) =
-            lobe_model(cells.mb(), cells.fres(), cells.fmix(), inv * cells.hmass());
-        // `M` from `M^-1`: the 2x2 inverse on (x, z); y is kept.
-        let r = Vec4::ONE / (ma[0] * ma[3] - ma[1] * ma[2]);
-        let m = [ma[3] * r, -ma[1] * r, -ma[2] * r, ma[0] * r];
-        // `ExactLobes::new`: `brdf::smith_lambda(alpha, wo)` with wo.y = 0
-        // (sin² = wo.x² + 0 is wo.x² exactly).
-        let a2 = alpha * alpha;
-        let cos2 = (woz * woz).max(Vec4::splat(MIN_COS * MIN_COS));
-        let a = a2 * (wox * wox) / cos2;
-        let lambda = a / (Vec4::splat(2.0) * ((Vec4::ONE + a).sqrt() + Vec4::ONE));
-        let lo2 = Vec4::ONE + Vec4::splat(2.0) * lambda;
-        let k = Vec4::splat(2.0 * PI) * woz.abs().max(Vec4::splat(MIN_COS));
+    pub fn new(halves: [(&CellLanes, [Vec4; 2], Vec4); 2]) -> Self {
+        let [lo, hi] = halves.map(|(cells, view, alpha)| half_constants(cells, view, alpha));
+        let c: [Wide; CONSTANTS] = std::array::from_fn(|i| Wide::from_halves(lo[i], hi[i]));
         CorrectionLanes {
-            fwd: ma.map(Wide::from_vec4),
-            ma: ma.map(Wide8::twice),
-            kda: Wide8::twice(kda),
-            kca: Wide8::twice(kca),
-            mb: mb.map(Wide8::twice),
-            kdb: Wide8::twice(kdb),
-            kcb: Wide8::twice(kcb),
-            inv: m.map(Wide8::twice),
-            det: Wide8::twice(r.abs()),
-            wox: Wide8::twice(wox),
-            woz: Wide8::twice(woz),
-            a2: Wide8::twice(a2),
-            lo2: Wide8::twice(lo2),
-            k: Wide8::twice(k),
-            maga: Wide::from_vec4(cells.mag()),
-            magb: Wide::from_vec4(cells.fres()),
+            ma: [c[0], c[1], c[2], c[3]],
+            kda: c[4],
+            kca: c[5],
+            mb: [c[6], c[7], c[8], c[9]],
+            kdb: c[10],
+            kcb: c[11],
+            inv: [c[12], c[13], c[14], c[15]],
+            det: c[16],
+            wox: c[17],
+            woz: c[18],
+            a2: c[19],
+            lo2: c[20],
+            k: c[21],
+            maga: c[22],
+            magb: c[23],
         }
     }
+}
+
+/// `CorrectionLanes`' constants of four lanes, in its field order (the
+/// last slot unused).
+#[inline(always)]
+fn half_constants(cells: &CellLanes, [wox, woz]: [Vec4; 2], alpha: Vec4) -> [Vec4; CONSTANTS] {
+    // One division for both lobes' `1 / hmass`.
+    let inv = Vec4::ONE / (Vec4::splat(PI) * cells.hmass() * cells.fhmass());
+    let (ma, kda, kca) = lobe_model(cells.ma(), cells.mag(), cells.mix(), inv * cells.fhmass());
+    let (mb, kdb, kcb) = lobe_model(cells.mb(), cells.fres(), cells.fmix(), inv * cells.hmass());
+    // `M` from `M^-1`: the 2x2 inverse on (x, z); y is kept.
+    let r = Vec4::ONE / (ma[0] * ma[3] - ma[1] * ma[2]);
+    let m = [ma[3] * r, -ma[1] * r, -ma[2] * r, ma[0] * r];
+    // `ExactLobes::new`: `brdf::smith_lambda(alpha, wo)` with wo.y = 0
+    // (sin² = wo.x² + 0 is wo.x² exactly).
+    let a2 = alpha * alpha;
+    let cos2 = (woz * woz).max(Vec4::splat(MIN_COS * MIN_COS));
+    let a = a2 * (wox * wox) / cos2;
+    let lambda = a / (Vec4::splat(2.0) * ((Vec4::ONE + a).sqrt() + Vec4::ONE));
+    let lo2 = Vec4::ONE + Vec4::splat(2.0) * lambda;
+    let k = Vec4::splat(2.0 * PI) * woz.abs().max(Vec4::splat(MIN_COS));
+    [
+        ma[0],
+        ma[1],
+        ma[2],
+        ma[3],
+        kda,
+        kca,
+        mb[0],
+        mb[1],
+        mb[2],
+        mb[3],
+        kdb,
+        kcb,
+        m[0],
+        m[1],
+        m[2],
+        m[3],
+        r.abs(),
+        wox,
+        woz,
+        a2,
+        lo2,
+        k,
+        cells.mag(),
+        cells.fres(),
+        Vec4::ZERO,
+    ]
 }
 
 /// One lobe's LTC model `mag ((1 - mix) D / hmass + mix cos / π)` with its
@@ -307,66 +348,66 @@ fn lobe_model(m: [Vec4; 4], mag: Vec4, mix: Vec4, inv_hmass: Vec4) -> ([Vec4; 4]
 
 /// `LobeModel::value` per lane.
 #[inline(always)]
-fn model_lanes(m: &[Wide8; 4], kd: Wide8, kc: Wide8, w: &Vec3Lanes<f32, 8>) -> Wide8 {
+fn model_lanes(m: &[Wide; 4], kd: Wide, kc: Wide, w: &Wide3) -> Wide {
     let ox = m[0].mul_add(w[0], m[1] * w[2]);
     let oz = m[2].mul_add(w[0], m[3] * w[2]);
     let l2 = ox.mul_add(ox, w[1].mul_add(w[1], oz * oz));
     kc.mul_add(
         w[2],
-        kd * oz.max(Wide8::ZERO) / (l2 * l2).max(Wide8::splat(1e-30)),
+        kd * oz.max(Wide::ZERO) / (l2 * l2).max(Wide::splat(1e-30)),
     )
 }
 
 /// `ExactLobes::eval` per lane.
 #[inline(always)]
-fn exact_lanes(k: &CorrectionLanes, w: &Vec3Lanes<f32, 8>) -> (Wide8, Wide8) {
+fn exact_lanes(k: &CorrectionLanes, w: &Wide3) -> (Wide, Wide) {
     let h = [w[0] + k.wox, w[1], w[2] + k.woz];
-    let l2 = dot(&h, &h).max(Wide8::splat(1e-30));
+    let l2 = dot(&h, &h).max(Wide::splat(1e-30));
     let hxy = h[0].mul_add(h[0], h[1] * h[1]);
     let q = (k.a2 * h[2]).mul_add(h[2], hxy);
-    let c = w[2].max(Wide8::splat(MIN_COS));
+    let c = w[2].max(Wide::splat(MIN_COS));
     let wxy = w[0].mul_add(w[0], w[1] * w[1]);
     // Square roots as `x / sqrt(x)` with the approximate `1 / sqrt`: the
     // factor needs ~1e-3, and the divider was the bottleneck here.
     let t2 = c.mul_add(c, k.a2 * wxy);
     let t = t2 * t2.rsqrt_approx();
     let num = k.a2 * l2 * l2 * w[2];
-    let den = (k.k * q * q * c.mul_add(k.lo2, t)).max(Wide8::splat(1e-30));
+    let den = (k.k * q * q * c.mul_add(k.lo2, t)).max(Wide::splat(1e-30));
     let a = num / den;
     let wo_w = k.wox.mul_add(w[0], k.woz * w[2]);
-    let cos_oh = (wo_w + Wide8::ONE) * l2.rsqrt_approx();
-    let m = Wide8::ONE - cos_oh.clamp(0.0, 1.0);
+    let cos_oh = (wo_w + Wide::ONE) * l2.rsqrt_approx();
+    let m = Wide::ONE - cos_oh.clamp(0.0, 1.0);
     let m2 = m * m;
     (a, a * m2 * m2 * m)
 }
 
 /// `atan2_pos` per lane (the same octant reduction, as selects).
 #[inline(always)]
-fn atan2_pos_lanes(y: Wide8, x: Wide8) -> Wide8 {
+fn atan2_pos_lanes(y: Wide, x: Wide) -> Wide {
     let steep = x.abs().lt(y);
     let num = steep.select(-x, y);
     let den = steep.select(y, x);
     let base = steep.select(
-        Wide8::splat(FRAC_PI_2),
-        x.lt(Wide8::ZERO).select(Wide8::splat(PI), Wide8::ZERO),
+        Wide::splat(FRAC_PI_2),
+        x.lt(Wide::ZERO).select(Wide::splat(PI), Wide::ZERO),
     );
-    let d = den.mul_add(den, Wide8::splat(0.28086) * num * num);
-    base + num * den / d.max(Wide8::splat(1e-30))
+    let d = den.mul_add(den, Wide::splat(0.28086) * num * num);
+    base + num * den / d.max(Wide::splat(1e-30))
 }
 
-/// A spherical triangle of lobe A's LTC space, per lane: three unit
-/// vectors (`f64`).
+/// A spherical triangle of lobe A's LTC space, per lane: three (nearly)
+/// unit vectors.
 type Tri = [Wide3; 3];
 
-/// `lobe_factors` for `HALF` (4) pixels at once, across pixels: lane `l` is one
-/// pixel's light polygon (clipped to the horizon), given by its `N` unit
-/// vertices `u` (zero for a vertex at the shading point). A lane's polygon
-/// may repeat a vertex in consecutive slots (the batch pads clipped
-/// polygons to one vertex count; `real` says which slots are its own): its
-/// fan triangle is degenerate and adds exactly 0. Same nodes, weights and
-/// fades as `lobe_factors`; `ltc::u_batch` checks the two agree.
+/// `lobe_factors` for the batch's `LANES` (8) pixels at once, across
+/// pixels: lane `l` is one pixel's light polygon (clipped to the horizon),
+/// given by its `N` unit vertices `u` in the shading frame (zero for a
+/// vertex at the shading point). A lane's polygon may repeat a vertex in
+/// consecutive slots (the batch pads clipped polygons to one vertex count;
+/// `real` says which slots are its own): its repeated slots add
+/// zero-area triangles to the fan and are left out of its centre.
 ///
-/// Nodes live in lobe A's LTC space (`o = M^-1 w`), where that lobe is a
+/// The nodes are placed in lobe A's LTC space, where that lobe is a
 /// clamped cosine at every roughness and view: the polygon's image is
 /// fanned there from its centroid direction, one node per fan triangle at
 /// its centroid, and each node is taken back to the shading frame with its
@@ -379,15 +420,16 @@ type Tri = [Wide3; 3];
 /// fan triangle is split into 4 pieces, and where the ratio still moves
 /// (`settle_weight`) into 16, blended in continuously; at 16 pieces a
 /// ratio that settles geometrically is carried to its limit
-/// (`extrapolated`); the trust fade then judges the finest level used.
+/// (`extrapolated`); the trust fade then judges the finest level used. A
+/// level is computed for the whole batch when any lane asks for it, and a
+/// lane that does not ask keeps exactly its coarser sums (a select), so
+/// each lane's answer is its own whatever its neighbours.
 ///
-/// What cancels for a small light is computed in `f64`, per pixel: the
-/// image, the fan, each triangle's triple product and Van Oosterom-Strackee
-/// denominator, and each node's (unnormalised) direction. The nodes
-/// themselves (solid angle, exact lobes, models) run in `f32`, two nodes
-/// per `Wide8` (each pixel's node `i` in lanes 0-3, node `i + 1` in lanes
-/// 4-7): half the instructions of four `f64` lanes per node, and ~1e-6
-/// relative, where the factor needs ~1e-3.
+/// Everything in `f32`, one pixel per lane, one node per fan triangle and
+/// lane. What would cancel for a small light is kept relative: each
+/// triangle's triple product is taken from its two edge vectors from its
+/// first corner (differences of nearby unit vectors, exact in `f32`), so a
+/// light 1e-3 rad across keeps its solid angles to ~1e-4.
 pub fn lobe_factors_lanes(
     u: &[Wide3],
     real: Option<&[Mask]>,
@@ -422,8 +464,15 @@ impl Kernel for Factors<'_> {
     type Out = (Wide, Wide);
     #[inline(always)]
     fn run(self) -> (Wide, Wide) {
+        // Plain loops, no closures: a closure is compiled out of line at
+        // baseline, whatever instruction set its caller runs (`isa`).
+        let n = self.u.len().min(MAX_VERTICES);
+        let mut o = [[Wide::ZERO; 3]; MAX_VERTICES];
+        for (o, u) in o.iter_mut().zip(&self.u[..n]) {
+            *o = unit(&ltc_map(&self.k.ma, u));
+        }
         factors(
-            self.u,
+            &o[..n],
             self.real,
             self.k,
             self.share_a,
@@ -433,22 +482,20 @@ impl Kernel for Factors<'_> {
     }
 }
 
+/// The factors from the polygon's image `o` in lobe A's LTC space (unit
+/// vectors, zero for a vertex at the point).
 #[inline(always)]
 fn factors(
-    u: &[Wide3],
+    o: &[Wide3],
     real: Option<&[Mask]>,
     k: &CorrectionLanes,
     share_a: Wide,
     share_b: Wide,
     stakes: &Stakes,
 ) -> (Wide, Wide) {
-    // Plain loops, no closures: a closure is compiled out of line at
-    // baseline, whatever instruction set its caller runs (`isa`).
-    let n = u.len().min(MAX_VERTICES);
-    let mut o = [[Wide::ZERO; 3]; MAX_VERTICES];
+    let n = o.len().min(MAX_VERTICES);
     let mut centre = [Wide::ZERO; 3];
     for i in 0..n {
-        o[i] = unit(&ltc_map(&k.fwd, &u[i]));
         let mut v = o[i];
         if let Some(real) = real {
             for x in &mut v {
@@ -462,16 +509,11 @@ fn factors(
         dot(&centre, &centre).max(Wide::splat(1e-30)).rsqrt_approx(),
     );
     let fan = Fan { c, o: &o[..n] };
-    let mut sums = [Wide8::ZERO; 4];
-    for pair in 0..n.div_ceil(2) {
-        let second = if 2 * pair + 1 < n {
-            Some(tri_node(&fan.tri(2 * pair + 1)))
-        } else {
-            None
-        };
-        node_pair(k, tri_node(&fan.tri(2 * pair)), second, &mut sums);
+    let mut sums = [Wide::ZERO; 4];
+    for i in 0..n {
+        node(k, tri_node(&fan.tri(i)), &mut sums);
     }
-    let coarse = halves(shaped(sums));
+    let coarse = sums;
     let ltc = (share_a * k.maga, share_b * k.magb);
     let t1 = refine_weight(&coarse, ltc, stakes);
     let sums = if t1.gt(Wide::ZERO).any() {
@@ -501,7 +543,7 @@ fn factors(
 /// `ltc::image_accuracy` among 0.005 / 0.02 / 0.05: 0.05 misses the goal on
 /// two scenes; 0.005 costs 1.4x the U time of 0.02 for the same errors
 /// (docs/accuracy.md).
-const REFINE_AT: f64 = 0.02;
+const REFINE_AT: f32 = 0.02;
 
 /// How far to trust the next level over `sums` (`[Q[fA], Q[fB], Q[ltcA],
 /// Q[ltcB]]`), by `trust_next`.
@@ -569,19 +611,9 @@ fn ratio(sums: &[Wide; 4], lobe: usize) -> Wide {
     sums[lobe] / sums[lobe + 2]
 }
 
-/// Each sum's two halves (lanes 0-3 and 4-7) added.
-#[inline(always)]
-fn halves(sums: [Wide8; 4]) -> [Wide; 4] {
-    let mut out = [Wide::ZERO; 4];
-    for i in 0..4 {
-        out[i] = sums[i].halves_sum();
-    }
-    out
-}
-
 /// Largest ratio of successive changes of `Q[f] / Q[ltc]` over the levels
 /// (1, 4, 16 pieces) that is taken for a geometric convergence.
-const SETTLING: f64 = 0.6;
+const SETTLING: f32 = 0.6;
 
 /// The finest sums with each lobe's ratio `Q[f] / Q[ltc]` carried to its
 /// limit where the three levels' ratios settle geometrically (the changes
@@ -606,12 +638,14 @@ fn extrapolated(coarse: &[Wide; 4], fine: &[Wide; 4], finer: &[Wide; 4]) -> [Wid
     out
 }
 
-/// `a + t (b - a)`, per sum.
+/// `a + t (b - a)`, per sum; exactly `a` where `t` is 0 (whatever `b`
+/// holds in a lane that did not ask for the finer level).
 #[inline(always)]
 fn blend(a: &[Wide; 4], b: &[Wide; 4], t: Wide) -> [Wide; 4] {
     let mut out = [Wide::ZERO; 4];
+    let some = t.gt(Wide::ZERO);
     for i in 0..4 {
-        out[i] = t.mul_add(b[i] - a[i], a[i]);
+        out[i] = some.select(t.mul_add(b[i] - a[i], a[i]), a[i]);
     }
     out
 }
@@ -658,7 +692,7 @@ impl Kernel for Refined<'_> {
 
 #[inline(always)]
 fn refined_sums(k: &CorrectionLanes, fan: Fan, level: u32) -> [Wide; 4] {
-    let mut sums = [Wide8::ZERO; 4];
+    let mut sums = [Wide::ZERO; 4];
     // Level 1 takes each fan triangle's four pieces as one group; level 2
     // splits each piece again, four groups of four, in the same order.
     let groups = if level == 1 { 1 } else { 4 };
@@ -677,17 +711,12 @@ fn refined_sums(k: &CorrectionLanes, fan: Fan, level: u32) -> [Wide; 4] {
                 finer = split(&pieces[g]);
                 &finer
             };
-            for pair in 0..2 {
-                node_pair(
-                    k,
-                    tri_node(&group[2 * pair]),
-                    Some(tri_node(&group[2 * pair + 1])),
-                    &mut sums,
-                );
+            for piece in group {
+                node(k, tri_node(piece), &mut sums);
             }
         }
     }
-    halves(shaped(sums))
+    sums
 }
 
 /// A spherical triangle's four pieces: its corners' and its centre's, cut
@@ -700,57 +729,45 @@ fn split(t: &Tri) -> [Tri; 4] {
     [[t[0], ab, ca], [ab, t[1], bc], [ca, bc, t[2]], [ab, bc, ca]]
 }
 
-/// `v / |v|` per lane; zero stays zero.
+/// `v / |v|` per lane (to the approximate `1 / sqrt`'s 5e-6: a triangle's
+/// triple product only scales with its corners' lengths); zero stays zero.
 #[inline(always)]
 fn unit(v: &Wide3) -> Wide3 {
     scale3(
         v,
-        Wide::ONE / dot(v, v).max(Wide::splat(f64::MIN_POSITIVE)).sqrt(),
+        dot(v, v).max(Wide::splat(f32::MIN_POSITIVE)).rsqrt_approx(),
     )
 }
 
-/// A triangle's triple product, its Van Oosterom-Strackee denominator
-/// (`tan(Ω / 2) = num / den`) and its (unnormalised) centroid direction.
+/// A triangle's triple product (from its edge vectors `b - a`, `c - a`,
+/// which keep a small triangle's precision: `a . (b x c) = a . ((b - a) x
+/// (c - a))`), its Van Oosterom-Strackee denominator (`tan(Ω / 2) = num /
+/// den`) and its (unnormalised) centroid direction.
 #[inline(always)]
 fn tri_node(t: &Tri) -> (Wide, Wide, Wide3) {
     let [a, b, c] = t;
-    let num = dot(a, &cross(b, c)).abs();
+    let num = dot(a, &cross(&sub3(b, a), &sub3(c, a))).abs();
     let den = Wide::ONE + dot(a, b) + dot(b, c) + dot(c, a);
     (num, den, add3(&add3(a, b), c))
 }
 
-/// Two nodes (each pixel's `first` in lanes 0-3, `second` in 4-7; a zero
-/// node of weight 0 without one) into `sums`: each node's direction and
-/// solid angle taken back to the shading frame, where the exact lobes and
-/// the two models are evaluated.
+/// One node per lane (a triangle's `tri_node`) into `sums`: its direction
+/// and solid angle taken back to the shading frame, where the exact lobes
+/// and the two models are evaluated.
 #[inline(always)]
-fn node_pair(
-    k: &CorrectionLanes,
-    first: (Wide, Wide, Wide3),
-    second: Option<(Wide, Wide, Wide3)>,
-    sums: &mut [Wide8; 4],
-) {
-    let (n1, d1, m1) = second.unwrap_or((Wide::ZERO, Wide::ONE, [Wide::ZERO; 3]));
-    let (n0, d0, m0) = first;
-    let (num, den) = (Wide8::join(n0, n1), Wide8::join(d0, d1));
-    let m = [
-        Wide8::join(m0[0], m1[0]),
-        Wide8::join(m0[1], m1[1]),
-        Wide8::join(m0[2], m1[2]),
-    ];
-    let (num, den, m) = shaped((num, den, m));
-    let omega = Wide8::splat(2.0) * atan2_pos_lanes(num, den);
-    let o = scale3(&m, dot(&m, &m).max(Wide8::splat(1e-30)).rsqrt_approx());
+fn node(k: &CorrectionLanes, (num, den, m): (Wide, Wide, Wide3), sums: &mut [Wide; 4]) {
+    let omega = Wide::splat(2.0) * atan2_pos_lanes(num, den);
+    let o = scale3(&m, dot(&m, &m).max(Wide::splat(1e-30)).rsqrt_approx());
     let wm = [
         k.inv[0].mul_add(o[0], k.inv[1] * o[2]),
         o[1],
         k.inv[2].mul_add(o[0], k.inv[3] * o[2]),
     ];
-    let r = dot(&wm, &wm).max(Wide8::splat(1e-30)).rsqrt_approx();
+    let r = dot(&wm, &wm).max(Wide::splat(1e-30)).rsqrt_approx();
     let w = scale3(&wm, r);
     let wt = w[2]
-        .gt(Wide8::ZERO)
-        .select(omega * k.det * r * r * r, Wide8::ZERO);
+        .gt(Wide::ZERO)
+        .select(omega * k.det * r * r * r, Wide::ZERO);
     let (ea, eb) = exact_lanes(k, &w);
     sums[0] = wt.mul_add(ea, sums[0]);
     sums[1] = wt.mul_add(eb, sums[1]);
@@ -758,28 +775,13 @@ fn node_pair(
     sums[3] = wt.mul_add(model_lanes(&k.mb, k.kdb, k.kcb, &w), sums[3]);
 }
 
-/// Only shapes the code of the node loop, on the 8-lane inputs and the
-/// sums, by `std::hint::black_box`: LLVM otherwise grows its vectors from
-/// the four-lane ends (the `f64` inputs, the per-pixel sums) and runs the
-/// whole node in two 4-wide halves with AVX2 (296 against 178 instructions
-/// per evaluation, `u_profile` under callgrind; docs/performance.md). With
-/// AVX-512, whose 32 registers hold either shape, the halves cost less than
-/// the stores and reloads `black_box` forces (`u_profile 40`, min of 7
-/// alternated runs: 76.5 against 78.8 ns per evaluation), but the level is
-/// chosen at run time (`isa`) and the code is the same at every level.
-#[inline(always)]
-fn shaped<T>(x: T) -> T {
-    std::hint::black_box(x)
-}
-
 /// `factor` per lane.
 #[inline(always)]
 fn factor_lanes(qf: Wide, qg: Wide, share: Wide, mag: Wide) -> Wide {
     let s = share.clamp(0.0, 1.0);
     let ltc = s * mag;
-    let inv = Wide::ONE / (qg * ltc);
-    let r = (qf * ltc * inv).min(Wide::splat(MAX_RATIO));
-    let miss = (qg * qg * inv - Wide::ONE).abs();
+    let r = (qf / qg).min(Wide::splat(MAX_RATIO));
+    let miss = (qg / ltc - Wide::ONE).abs();
     let trust = ((Wide::splat(TRUST_NONE) - miss) * Wide::splat(1.0 / (TRUST_NONE - TRUST_FULL)))
         .clamp(0.0, 1.0);
     let k = Wide::ONE + (r - Wide::ONE) * trust * (Wide::ONE - s);
@@ -787,7 +789,7 @@ fn factor_lanes(qf: Wide, qg: Wide, share: Wide, mag: Wide) -> Wide {
         .gt(Wide::ZERO)
         .and(ltc.gt(Wide::ZERO))
         .and(qf.ge(Wide::ZERO))
-        .and(inv.finite())
+        .and(miss.finite())
         .and(k.finite());
     ok.select(k.clamp(0.0, MAX_RATIO), Wide::ONE)
 }
@@ -797,6 +799,14 @@ mod tests {
     use super::*;
     use crate::shading::brdf;
 
+    /// The constants of one pixel in all eight lanes.
+    fn one(cell: &LtcCell, wo: Vec3, alpha: f32) -> CorrectionLanes {
+        let cells = CellLanes::splat(cell);
+        let view = [Vec4::splat(wo.x), Vec4::splat(wo.z)];
+        let alpha = Vec4::splat(alpha);
+        CorrectionLanes::new([(&cells, view, alpha), (&cells, view, alpha)])
+    }
+
     #[test]
     fn exact_lobes_equal_the_brdf() {
         for &r in &[0.05f32, 0.2, 0.5, 1.0] {
@@ -804,23 +814,20 @@ mod tests {
             for &tv in &[0.0f32, 0.7, 1.5, 1.5607] {
                 let wo = Vec3::new(tv.sin(), 0.0, tv.cos());
                 let e = ExactLobes::new(wo, alpha);
-                for k in 0..200 {
-                    let (t, p) = (1.55 * (k % 20) as f32 / 19.0, 0.3 * k as f32);
+                // The lane version the correction runs.
+                let cell = LtcCell {
+                    hmass: 1.0,
+                    fhmass: 1.0,
+                    ..Default::default()
+                };
+                let k = one(&cell, wo, alpha);
+                for k_ in 0..200 {
+                    let (t, p) = (1.55 * (k_ % 20) as f32 / 19.0, 0.3 * k_ as f32);
                     let w = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
                     let (f, cos_oh) = brdf::spec_local(alpha, w, wo);
                     let (a, b) = (f * w.z, f * w.z * brdf::schlick_weight(cos_oh));
                     let (ea, eb) = e.eval(w);
-                    // The lane version the correction runs, at the same point.
-                    let k = CorrectionLanes::new(
-                        &CellLanes::splat(&crate::shading::ltc::LtcCell {
-                            hmass: 1.0,
-                            fhmass: 1.0,
-                            ..Default::default()
-                        }),
-                        [Vec4::splat(wo.x), Vec4::splat(wo.z)],
-                        Vec4::splat(alpha),
-                    );
-                    let wl = [Wide8::splat(w.x), Wide8::splat(w.y), Wide8::splat(w.z)];
+                    let wl = [Wide::splat(w.x), Wide::splat(w.y), Wide::splat(w.z)];
                     let (la, lb) = exact_lanes(&k, &wl);
                     assert!(
                         (la.0[0] - a).abs() <= 1e-4 * a + 1e-9,
@@ -843,44 +850,50 @@ mod tests {
         }
     }
 
-    /// Every constant of lane `l`, in a fixed order (the node constants
-    /// must be the same in both halves).
-    fn constants(k: &CorrectionLanes, l: usize) -> Vec<f64> {
-        let mut nodes = k.ma.to_vec();
-        nodes.extend(k.mb);
-        nodes.extend([k.kda, k.kca, k.kdb, k.kcb, k.wox, k.woz, k.a2, k.lo2, k.k]);
-        let mut v: Vec<f64> = nodes
-            .iter()
-            .map(|w| {
-                assert_eq!(w.0[l].to_bits(), w.0[l + 4].to_bits(), "halves differ");
-                f64::from(w.0[l])
-            })
-            .collect();
-        v.extend([k.maga.0[l], k.magb.0[l]]);
-        v
+    /// Every constant of lane `l`, in a fixed order.
+    fn constants(k: &CorrectionLanes, l: usize) -> Vec<f32> {
+        let mut all = k.ma.to_vec();
+        all.extend(k.mb);
+        all.extend(k.inv);
+        all.extend([
+            k.kda, k.kca, k.kdb, k.kcb, k.det, k.wox, k.woz, k.a2, k.lo2, k.k, k.maga, k.magb,
+        ]);
+        all.iter().map(|w| w.0[l]).collect()
     }
 
     #[test]
     fn lane_constants_are_each_pixels_constants_bit_for_bit() {
-        // What the batch builds for four different pixels, against what
+        // What the batch builds for eight different pixels, against what
         // the scalar path (`lobe_factors`) builds for each alone.
         let p = crate::shading::ltc::packed_table();
-        let at = [(0.05, 0.99), (0.5, 0.3), (0.9, 0.01), (0.27, 0.7)];
-        let cells = CellLanes::from_packed(&at.map(|(r, c)| p.lookup_packed(r, c)));
+        let at: [(f32, f32); 8] = [
+            (0.05, 0.99),
+            (0.5, 0.3),
+            (0.9, 0.01),
+            (0.27, 0.7),
+            (0.15, 0.05),
+            (0.7, 0.85),
+            (1.0, 1.0),
+            (0.33, 0.42),
+        ];
         let view = at.map(|(_, c)| Vec3::new((1.0 - c * c).sqrt(), 0.0, c));
         let alpha = at.map(|(r, _)| brdf::alpha_from_roughness(r));
-        let lanes = CorrectionLanes::new(
-            &cells,
-            [view.map(|v| v.x), view.map(|v| v.z)].map(Vec4::from_array),
-            Vec4::from_array(alpha),
-        );
+        let half = |h: usize| {
+            let q: [(f32, f32); 4] = std::array::from_fn(|l| at[4 * h + l]);
+            let cells = CellLanes::from_packed(&q.map(|(r, c)| p.lookup_packed(r, c)));
+            let v: [Vec3; 4] = std::array::from_fn(|l| view[4 * h + l]);
+            let a: [f32; 4] = std::array::from_fn(|l| alpha[4 * h + l]);
+            (
+                cells,
+                [v.map(|v| v.x), v.map(|v| v.z)].map(Vec4::from_array),
+                Vec4::from_array(a),
+            )
+        };
+        let (h0, h1) = (half(0), half(1));
+        let lanes = CorrectionLanes::new([(&h0.0, h0.1, h0.2), (&h1.0, h1.1, h1.2)]);
         for (l, &(r, c)) in at.iter().enumerate() {
-            let one = CorrectionLanes::new(
-                &CellLanes::splat(&p.lookup(r, c)),
-                [Vec4::splat(view[l].x), Vec4::splat(view[l].z)],
-                Vec4::splat(alpha[l]),
-            );
-            let (a, b) = (constants(&lanes, l), constants(&one, 0));
+            let single = one(&p.lookup(r, c), view[l], alpha[l]);
+            let (a, b) = (constants(&lanes, l), constants(&single, 0));
             for (i, (a, b)) in a.iter().zip(&b).enumerate() {
                 assert_eq!(a.to_bits(), b.to_bits(), "constant {i}, lane {l}");
             }
@@ -892,8 +905,31 @@ mod tests {
         for k in 0..=2000 {
             let t = PI * k as f32 / 2000.0;
             let (y, x) = (t.sin(), t.cos());
-            let got = atan2_pos_lanes(Wide8::splat(y), Wide8::splat(x)).0[6];
+            let got = atan2_pos_lanes(Wide::splat(y), Wide::splat(x)).0[6];
             assert!((got - t).abs() < 0.005, "{t}");
+        }
+    }
+
+    #[test]
+    fn small_triangles_keep_their_solid_angle() {
+        // A spherical triangle `s` rad across near the pole: `f32`
+        // vertices, its solid angle against the planar estimate `s² / 2`
+        // (exact to O(s²) relative).
+        for s in [1e-1f32, 1e-2, 1e-3] {
+            let v = |x: f32, y: f32| {
+                let p = Vec3::new(0.3 + x, 0.2 + y, 1.0);
+                let p = p / p.length();
+                [Wide::splat(p.x), Wide::splat(p.y), Wide::splat(p.z)]
+            };
+            let t = [v(0.0, 0.0), v(s, 0.0), v(0.0, s)];
+            let (num, den, _) = tri_node(&t);
+            let omega = 2.0 * f64::from(num.0[0]).atan2(f64::from(den.0[0]));
+            // The triangle's area on the plane z = 1, taken to the sphere
+            // at its (near-constant) direction: cos^3 / distance^2.
+            let d = Vec3::new(0.3, 0.2, 1.0);
+            let want = 0.5 * f64::from(s * s) * f64::from(d.z / d.length()).powi(3);
+            let rel = (omega / want - 1.0).abs();
+            assert!(rel < 2.0 * f64::from(s) + 1e-3, "s {s}: {omega} vs {want}");
         }
     }
 

@@ -2,8 +2,8 @@
 //! time, one pixel per lane (`lanes::Wide`, `f32` elements), branch-free
 //! within a batch: the three contour sums (the Lambert form factor and the
 //! two LTC lobes), the clipping of the LTC images to their horizon, and the
-//! LTC shape correction (`ltc_correction::lobe_factors_lanes`, on each half
-//! batch of four pixels) all run across pixels.
+//! LTC shape correction (`ltc_correction::lobe_factors_lanes`) all run
+//! across pixels.
 //!
 //! Per batch, what does not depend on the light is set up once, across the
 //! lanes in `f32`, four pixels per `Vec4` (`PixelBatch::new`, bit for bit
@@ -42,9 +42,7 @@
 //! result against the scalar path.
 
 use super::brdf::MIN_ALPHA;
-use super::lanes::{
-    BatchFloat, Elem, HALF, Lanes, Mask, Quad, Quad3, QuadMask, Vec3Lanes, Wide, Wide3, dot,
-};
+use super::lanes::{BatchFloat, Elem, HALF, Lanes, Mask, Vec3Lanes, Wide, Wide3, dot};
 use super::ltc::{self, CellLanes, LtcCell};
 use super::ltc_correction::{CorrectionLanes, Stakes, lobe_factors_lanes};
 use super::polygon::MAX_LIGHT_VERTICES;
@@ -155,8 +153,8 @@ pub struct PixelBatch {
     fmix: Wide,
     mag: Wide,
     fres: Wide,
-    /// The correction's constants of each half batch (lanes 0-3, 4-7).
-    corr: [CorrectionLanes; 2],
+    /// The correction's constants.
+    corr: CorrectionLanes,
     /// What the lights already shaded give each lane (luminance of `U`):
     /// the shape correction is refined only where this light's doubt
     /// matters against the pixel's whole `U` (`set_others`; 0 until set).
@@ -195,8 +193,8 @@ impl PixelBatch {
         // there is a lobe (the same test).
         let lobe = active.and(ks[0].max(ks[1]).max(ks[2]).gt(Wide::ZERO));
         let want_b = lobe.and(ks[0].min(ks[1]).min(ks[2]).lt(Wide::ONE));
-        let (f0, c0, k0) = half_setup(&sp, lobe, 0);
-        let (f1, c1, k1) = half_setup(&sp, lobe, 1);
+        let (f0, c0, v0, al0) = half_setup(&sp, lobe, 0);
+        let (f1, c1, v1, al1) = half_setup(&sp, lobe, 1);
         let join = |a: Vec4, b: Vec4| Wide::from_halves(a, b);
         let mut frame = [[Wide::ZERO; 3]; 3];
         for r in 0..3 {
@@ -235,7 +233,7 @@ impl PixelBatch {
             fmix,
             mag: join(c0.mag(), c1.mag()),
             fres: join(c0.fres(), c1.fres()),
-            corr: [k0, k1],
+            corr: CorrectionLanes::new([(&c0, v0, al0), (&c1, v1, al1)]),
             others: Wide::ZERO,
             sp: std::array::from_fn(|l| *sp[l]),
         }
@@ -254,7 +252,8 @@ impl PixelBatch {
 }
 
 /// Half `h` of a batch's setup (lanes `4 h..4 h + 4`, one `Vec4`): the
-/// shading frames, the LTC cells and the correction's constants. A
+/// shading frames, the LTC cells, and the views `(sin, cos)` and GGX alphas
+/// the correction's constants are made from. A
 /// function, not a closure: a closure is compiled out of line at baseline,
 /// whatever instruction set its caller runs (`isa`).
 #[inline(always)]
@@ -262,7 +261,7 @@ fn half_setup(
     sp: &[&SurfacePoint; LANES],
     lobe: Mask,
     h: usize,
-) -> ([[Vec4; 3]; 3], CellLanes, CorrectionLanes) {
+) -> ([[Vec4; 3]; 3], CellLanes, [Vec4; 2], Vec4) {
     let v4 = |f: fn(&SurfacePoint) -> f32| {
         Vec4::new(
             f(sp[HALF * h]),
@@ -299,8 +298,7 @@ fn half_setup(
     // `alpha_from_roughness`.
     let r = roughness.clamp(Vec4::ZERO, Vec4::ONE);
     let alpha = Vec4::select(on, (r * r).max(Vec4::splat(MIN_ALPHA)), Vec4::ONE);
-    let corr = CorrectionLanes::new(&cells, view, alpha);
-    (frame, cells, corr)
+    (frame, cells, view, alpha)
 }
 
 /// Largest condition number of an LTC map `M^-1` that the `f32` lanes
@@ -1162,11 +1160,12 @@ fn shade<const N: usize>(
     fast.and(bad)
 }
 
-/// The shape correction's factors `(A, B)` of every lane, each half batch
-/// through `lobe_factors_lanes` (four pixels, the fan in `f64`); a half
-/// with no lane of `lobe` is left at 1. `u`, `real`: the unit polygon
-/// and its real slots as `shade` has them; `stakes`: lobe A, lobe B, the
-/// diffuse part and the other lights (`Stakes`).
+/// The shape correction's factors `(A, B)` of every lane
+/// (`lobe_factors_lanes`, all eight lanes at once); `u`, `real`: the unit
+/// polygon and its real slots as `shade` has them; `stakes`: lobe A, lobe
+/// B, the diffuse part and the other lights (`Stakes`). Lanes outside
+/// `lobe` (their factors are not used) weigh nothing, so they never ask
+/// for a finer cubature.
 #[inline(always)]
 fn correction(
     u: &[Wide3],
@@ -1176,42 +1175,13 @@ fn correction(
     stakes: &[Wide; 4],
     lobe: Mask,
 ) -> (Wide, Wide) {
-    let k = u.len();
-    let (mut ka, mut kb) = (Wide::ONE, Wide::ONE);
-    for h in 0..2 {
-        if !lobe.half(h).any() {
-            continue;
-        }
-        let mut uh: [Quad3; SLOTS] = [[Quad::ZERO; 3]; SLOTS];
-        let mut rh = [QuadMask::NONE; SLOTS];
-        for i in 0..k {
-            for c in 0..3 {
-                uh[i][c] = u[i][c].half(h);
-            }
-            if let Some(real) = real {
-                rh[i] = real[i].half(h);
-            }
-        }
-        let st = Stakes {
-            a: stakes[0].half(h),
-            b: stakes[1].half(h),
-            diffuse: stakes[2].half(h),
-            others: stakes[3].half(h),
-        };
-        let (a, bb) = lobe_factors_lanes(
-            &uh[..k],
-            real.map(|_| &rh[..k]),
-            &b.corr[h],
-            share_a.half(h),
-            share_b.half(h),
-            &st,
-        );
-        for l in 0..HALF {
-            ka.0[HALF * h + l] = a.0[l] as BatchFloat;
-            kb.0[HALF * h + l] = bb.0[l] as BatchFloat;
-        }
-    }
-    (ka, kb)
+    let st = Stakes {
+        a: lobe.select(stakes[0], Wide::ZERO),
+        b: lobe.select(stakes[1], Wide::ZERO),
+        diffuse: stakes[2],
+        others: stakes[3],
+    };
+    lobe_factors_lanes(u, real, &b.corr, share_a, share_b, &st)
 }
 
 #[cfg(test)]
