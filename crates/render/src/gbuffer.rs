@@ -129,31 +129,19 @@ pub fn resolve_hit(
             };
             let mat = &world.scene.materials[mesh.material as usize];
             // A material's maps usually share one size: their texel
-            // footprint at `uv` is then worked out once.
+            // footprint at `uv` is then worked out once (`sample_map`).
             let mut last: Option<((u32, u32), TexelFootprint)> = None;
-            let mut sample = |map: &Texture| {
-                let size = (map.width, map.height);
-                let fp = match last {
-                    Some((s, fp)) if s == size => fp,
-                    _ => {
-                        let fp = map.footprint(uv);
-                        last = Some((size, fp));
-                        fp
-                    }
-                };
-                fp.sample(map)
-            };
             let mut diffuse = mat.diffuse;
             if let Some(map) = &mat.diffuse_map {
-                let texel = sample(map);
+                let texel = sample_map(map, uv, &mut last);
                 diffuse *= Vec3::new(texel[0], texel[1], texel[2]);
             }
             let roughness = match &mat.roughness_map {
-                Some(map) => sample(map)[0].clamp(0.0, 1.0),
+                Some(map) => sample_map(map, uv, &mut last)[0].clamp(0.0, 1.0),
                 None => mat.roughness,
             };
             if let (Some(map), Some((dpds, dpdt))) = (&mat.normal_map, frame.tangents) {
-                let texel = sample(map);
+                let texel = sample_map(map, uv, &mut last);
                 let local = Vec3::new(texel[0], texel[1], texel[2]) * 2.0 - Vec3::ONE;
                 ns = apply_normal_map(ns, dpds, dpdt, local);
             }
@@ -174,6 +162,26 @@ pub fn resolve_hit(
             set_motion(out, prev);
         }
     }
+}
+
+/// `map` at `uv`, through the footprint in `last` when it was made for a
+/// map of this size. Inlined into the per-ISA primary kernel.
+#[inline(always)]
+fn sample_map(
+    map: &Texture,
+    uv: Vec2,
+    last: &mut Option<((u32, u32), TexelFootprint)>,
+) -> [f32; 4] {
+    let size = (map.width, map.height);
+    let fp = match *last {
+        Some((s, fp)) if s == size => fp,
+        _ => {
+            let fp = map.footprint(uv);
+            *last = Some((size, fp));
+            fp
+        }
+    };
+    fp.sample(map)
 }
 
 /// Tangent-space normal `local` (+Y along increasing t, OpenGL convention)
