@@ -107,10 +107,12 @@ fn trace_packets(
     let rows = (out.len() / width as usize) as u32;
     // Origin and interval are the same for every camera ray: set once, the
     // packet loop writes directions and the active mask only.
-    let mut rays = Rays16::default();
-    rays.ox = [cam.eye.x; 16];
-    rays.oy = [cam.eye.y; 16];
-    rays.oz = [cam.eye.z; 16];
+    let mut rays = Rays16 {
+        ox: [cam.eye.x; 16],
+        oy: [cam.eye.y; 16],
+        oz: [cam.eye.z; 16],
+        ..Rays16::default()
+    };
     // `CameraFrame::ray_dir`'s image-plane coordinates, term for term, for
     // an offset shared by every pixel.
     let o = offset.at(0);
@@ -133,22 +135,13 @@ fn trace_packets(
                 // coordinates are a column's and a row's, and the direction
                 // is `ray_dir`'s (forward + x right + y up, normalised)
                 // in lanes, operation for operation.
-                let mut len2 = [0.0f32; 16];
                 for l in 0..16 {
                     let (x, y) = (xs[l % 4], ys[l / 4]);
-                    rays.dx[l] = cam.forward.x + x * cam.right.x + y * cam.up.x;
-                    rays.dy[l] = cam.forward.y + x * cam.right.y + y * cam.up.y;
-                    rays.dz[l] = cam.forward.z + x * cam.right.z + y * cam.up.z;
-                }
-                for l in 0..16 {
-                    len2[l] =
-                        rays.dx[l] * rays.dx[l] + rays.dy[l] * rays.dy[l] + rays.dz[l] * rays.dz[l];
-                }
-                for l in 0..16 {
-                    let rcp = 1.0 / len2[l].sqrt();
-                    rays.dx[l] *= rcp;
-                    rays.dy[l] *= rcp;
-                    rays.dz[l] *= rcp;
+                    let dx = cam.forward.x + x * cam.right.x + y * cam.up.x;
+                    let dy = cam.forward.y + x * cam.right.y + y * cam.up.y;
+                    let dz = cam.forward.z + x * cam.right.z + y * cam.up.z;
+                    let rcp = 1.0 / (dx * dx + dy * dy + dz * dz).sqrt();
+                    (rays.dx[l], rays.dy[l], rays.dz[l]) = (dx * rcp, dy * rcp, dz * rcp);
                 }
             } else {
                 for lane in 0..16 {
