@@ -49,8 +49,10 @@ pub struct GSample {
     pub prev_valid: bool,
 }
 
-/// Resolves an Embree hit into a G-buffer sample.
+/// Resolves an Embree hit into the G-buffer sample `out`, written in place
+/// (inlined into the per-ISA primary kernel, `primary::trace_rows`).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub fn resolve_hit(
     world: &World,
     geom_id: u32,
@@ -60,9 +62,11 @@ pub fn resolve_hit(
     t: f32,
     dir: Vec3,
     prev: &CameraFrame,
-) -> GSample {
+    out: &mut GSample,
+) {
     let Some(geom) = world.geom(geom_id) else {
-        return GSample::default();
+        *out = GSample::default();
+        return;
     };
     match geom {
         GeomRef::Light(li) => {
@@ -78,7 +82,7 @@ pub fn resolve_hit(
             } else {
                 Vec3::ZERO
             };
-            let mut s = GSample {
+            *out = GSample {
                 kind: PixelKind::Light,
                 position,
                 ng,
@@ -89,8 +93,7 @@ pub fn resolve_hit(
                 emission,
                 ..GSample::default()
             };
-            set_motion(&mut s, prev);
-            s
+            set_motion(out, prev);
         }
         GeomRef::Mesh(mi) => {
             let mesh = &world.scene.meshes[mi as usize];
@@ -101,7 +104,8 @@ pub fn resolve_hit(
                     .get(mi as usize)
                     .and_then(|f| f.get(prim_id as usize)),
             ) else {
-                return GSample::default();
+                *out = GSample::default();
+                return;
             };
             let [i0, i1, i2] = tri.map(|i| i as usize);
             let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
@@ -125,35 +129,23 @@ pub fn resolve_hit(
             };
             let mat = &world.scene.materials[mesh.material as usize];
             // A material's maps usually share one size: their texel
-            // footprint at `uv` is then worked out once.
+            // footprint at `uv` is then worked out once (`sample_map`).
             let mut last: Option<((u32, u32), TexelFootprint)> = None;
-            let mut sample = |map: &Texture| {
-                let size = (map.width, map.height);
-                let fp = match last {
-                    Some((s, fp)) if s == size => fp,
-                    _ => {
-                        let fp = map.footprint(uv);
-                        last = Some((size, fp));
-                        fp
-                    }
-                };
-                fp.sample(map)
-            };
             let mut diffuse = mat.diffuse;
             if let Some(map) = &mat.diffuse_map {
-                let texel = sample(map);
+                let texel = sample_map(map, uv, &mut last);
                 diffuse *= Vec3::new(texel[0], texel[1], texel[2]);
             }
             let roughness = match &mat.roughness_map {
-                Some(map) => sample(map)[0].clamp(0.0, 1.0),
+                Some(map) => sample_map(map, uv, &mut last)[0].clamp(0.0, 1.0),
                 None => mat.roughness,
             };
             if let (Some(map), Some((dpds, dpdt))) = (&mat.normal_map, frame.tangents) {
-                let texel = sample(map);
+                let texel = sample_map(map, uv, &mut last);
                 let local = Vec3::new(texel[0], texel[1], texel[2]) * 2.0 - Vec3::ONE;
                 ns = apply_normal_map(ns, dpds, dpdt, local);
             }
-            let mut s = GSample {
+            *out = GSample {
                 kind: PixelKind::Surface,
                 position,
                 ng,
@@ -167,16 +159,36 @@ pub fn resolve_hit(
                 roughness,
                 ..GSample::default()
             };
-            set_motion(&mut s, prev);
-            s
+            set_motion(out, prev);
         }
     }
+}
+
+/// `map` at `uv`, through the footprint in `last` when it was made for a
+/// map of this size. Inlined into the per-ISA primary kernel.
+#[inline(always)]
+fn sample_map(
+    map: &Texture,
+    uv: Vec2,
+    last: &mut Option<((u32, u32), TexelFootprint)>,
+) -> [f32; 4] {
+    let size = (map.width, map.height);
+    let fp = match *last {
+        Some((s, fp)) if s == size => fp,
+        _ => {
+            let fp = map.footprint(uv);
+            *last = Some((size, fp));
+            fp
+        }
+    };
+    fp.sample(map)
 }
 
 /// Tangent-space normal `local` (+Y along increasing t, OpenGL convention)
 /// to world space, in the tangent frame (`dpds`, `dpdt`) of the triangle's
 /// uv parameterisation (`TriFrame`; absent on degenerate uvs, where the
 /// normal stays unperturbed).
+#[inline]
 fn apply_normal_map(ns: Vec3, dpds: Vec3, dpdt: Vec3, local: Vec3) -> Vec3 {
     // Gram-Schmidt against the (possibly flipped) shading normal; the
     // bitangent keeps the handedness the uv mapping has.
@@ -190,6 +202,7 @@ fn apply_normal_map(ns: Vec3, dpds: Vec3, dpdt: Vec3, local: Vec3) -> Vec3 {
     (t * local.x + b * local.y + ns * local.z.max(0.0)).normalize_or(ns)
 }
 
+#[inline]
 fn set_motion(s: &mut GSample, prev: &CameraFrame) {
     if let Some((x, y)) = prev.project(s.position) {
         s.prev_pixel = Vec2::new(x, y);

@@ -5,6 +5,7 @@ use super::gbuffer::{GSample, resolve_hit};
 use super::world::World;
 use glam::{Vec2, Vec3};
 use penumbra_embree::{INVALID_ID, Rays16};
+use penumbra_isa::Kernel;
 use penumbra_scene::CameraFrame;
 
 /// Packet footprint in pixels.
@@ -51,63 +52,126 @@ pub fn trace_rows(
     offset: PixelOffset,
     out: &mut [GSample],
 ) {
+    // Compiled once per ISA level: the resolve is scalar f32 arithmetic
+    // (no `mul_add`, no contraction), so every level gives the same bytes,
+    // and the wider levels spend fewer instructions on it.
+    penumbra_isa::run(TraceRows {
+        world,
+        cam,
+        prev,
+        y0,
+        offset,
+        out,
+    });
+}
+
+struct TraceRows<'a, 'd> {
+    world: &'a World<'d>,
+    cam: &'a CameraFrame,
+    prev: &'a CameraFrame,
+    y0: u32,
+    offset: PixelOffset,
+    out: &'a mut [GSample],
+}
+
+impl Kernel for TraceRows<'_, '_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        let TraceRows {
+            world,
+            cam,
+            prev,
+            y0,
+            offset,
+            out,
+        } = self;
+        trace_packets(world, cam, prev, y0, offset, out);
+    }
+}
+
+/// Lane `l` of a 4x4 packet: its column and row inside the packet.
+const LANE_COL: [u32; 16] = [0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3];
+const LANE_ROW: [u32; 16] = [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3];
+
+#[inline(always)]
+fn trace_packets(
+    world: &World,
+    cam: &CameraFrame,
+    prev: &CameraFrame,
+    y0: u32,
+    offset: PixelOffset,
+    out: &mut [GSample],
+) {
     let width = cam.width;
     let rows = (out.len() / width as usize) as u32;
-    let mut rays = Rays16::default();
+    // Origin and interval are the same for every camera ray: set once, the
+    // packet loop writes directions and the active mask only.
+    let mut rays = Rays16 {
+        ox: [cam.eye.x; 16],
+        oy: [cam.eye.y; 16],
+        oz: [cam.eye.z; 16],
+        ..Rays16::default()
+    };
     // `CameraFrame::ray_dir`'s image-plane coordinates, term for term, for
     // an offset shared by every pixel.
     let o = offset.at(0);
     let plane_x =
         |i: u32| (2.0 * (i as f32 + o.x) / cam.width as f32 - 1.0) * cam.tan_half * cam.aspect;
     let plane_y = |j: u32| (1.0 - 2.0 * (j as f32 + o.y) / cam.height as f32) * cam.tan_half;
+    let shared = matches!(offset, PixelOffset::Centre | PixelOffset::Frame(_));
     for py in (0..rows).step_by(PACKET_H as usize) {
         let ys: [f32; PACKET_H as usize] = std::array::from_fn(|k| plane_y(y0 + py + k as u32));
         for px in (0..width).step_by(PACKET_W as usize) {
             let xs: [f32; PACKET_W as usize] = std::array::from_fn(|k| plane_x(px + k as u32));
-            rays.active = 0;
-            for lane in 0..16u32 {
-                let (i, r) = (px + lane % PACKET_W, py + lane / PACKET_W);
-                if i >= width || r >= rows {
-                    continue;
+            let mut active = 0u16;
+            for lane in 0..16 {
+                let (i, r) = (px + LANE_COL[lane], py + LANE_ROW[lane]);
+                active |= u16::from(i < width && r < rows) << lane;
+            }
+            rays.active = active;
+            if shared {
+                // One sub-pixel position for every pixel: the image-plane
+                // coordinates are a column's and a row's, and the direction
+                // is `ray_dir`'s (forward + x right + y up, normalised)
+                // in lanes, operation for operation.
+                for l in 0..16 {
+                    let (x, y) = (xs[l % 4], ys[l / 4]);
+                    let dx = cam.forward.x + x * cam.right.x + y * cam.up.x;
+                    let dy = cam.forward.y + x * cam.right.y + y * cam.up.y;
+                    let dz = cam.forward.z + x * cam.right.z + y * cam.up.z;
+                    let rcp = 1.0 / (dx * dx + dy * dy + dz * dz).sqrt();
+                    (rays.dx[l], rays.dy[l], rays.dz[l]) = (dx * rcp, dy * rcp, dz * rcp);
                 }
-                let j = y0 + r;
-                let d = match offset {
-                    // One sub-pixel position for every pixel: the image-plane
-                    // coordinates are a column's and a row's, computed once.
-                    PixelOffset::Centre | PixelOffset::Frame(_) => {
-                        let (x, y) = (
-                            xs[(lane % PACKET_W) as usize],
-                            ys[(lane / PACKET_W) as usize],
-                        );
-                        (cam.forward + x * cam.right + y * cam.up).normalize()
+            } else {
+                for lane in 0..16 {
+                    let (i, r) = (px + LANE_COL[lane], py + LANE_ROW[lane]);
+                    if active & (1 << lane) == 0 {
+                        continue;
                     }
-                    PixelOffset::Jitter { .. } => {
-                        let o = offset.at(j * width + i);
-                        cam.ray_dir(i, j, o.x, o.y)
-                    }
-                };
-                let l = lane as usize;
-                (rays.ox[l], rays.oy[l], rays.oz[l]) = (cam.eye.x, cam.eye.y, cam.eye.z);
-                (rays.dx[l], rays.dy[l], rays.dz[l]) = (d.x, d.y, d.z);
-                rays.tnear[l] = 0.0;
-                rays.tfar[l] = f32::INFINITY;
-                rays.active |= 1 << lane;
+                    let j = y0 + r;
+                    let o = offset.at(j * width + i);
+                    let d = cam.ray_dir(i, j, o.x, o.y);
+                    (rays.dx[lane], rays.dy[lane], rays.dz[lane]) = (d.x, d.y, d.z);
+                }
             }
             let hits = world.rt.intersect16(&rays, true);
             for lane in 0..16usize {
-                if rays.active & (1 << lane) == 0 {
+                if active & (1 << lane) == 0 {
                     continue;
                 }
-                let (i, r) = (px + lane as u32 % PACKET_W, py + lane as u32 / PACKET_W);
+                let (i, r) = (px + LANE_COL[lane], py + LANE_ROW[lane]);
                 let dir = Vec3::new(rays.dx[lane], rays.dy[lane], rays.dz[lane]);
-                let mut sample = if hits.geom_id[lane] == INVALID_ID {
-                    let mut s = GSample {
+                let Some(sample) = out.get_mut((r * width + i) as usize) else {
+                    continue;
+                };
+                if hits.geom_id[lane] == INVALID_ID {
+                    *sample = GSample {
                         wo: -dir,
+                        // A miss has no surface to reproject; it keeps its pixel.
+                        prev_pixel: Vec2::new(i as f32 + 0.5, (y0 + r) as f32 + 0.5),
                         ..GSample::default()
                     };
-                    // A miss has no surface to reproject; it keeps its pixel.
-                    s.prev_pixel = Vec2::new(i as f32 + 0.5, (y0 + r) as f32 + 0.5);
-                    s
                 } else {
                     resolve_hit(
                         world,
@@ -118,8 +182,9 @@ pub fn trace_rows(
                         hits.t[lane],
                         dir,
                         prev,
-                    )
-                };
+                        sample,
+                    );
+                }
                 if let PixelOffset::Frame(o) = offset {
                     // Motion vectors of the unjittered camera: the point seen
                     // at (i + o) moved by prev_pixel - (i + o), and that motion
@@ -129,7 +194,6 @@ pub fn trace_rows(
                         sample.prev_pixel -= o - Vec2::splat(0.5);
                     }
                 }
-                out[(r * width + i) as usize] = sample;
             }
         }
     }

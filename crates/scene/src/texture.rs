@@ -45,7 +45,7 @@ fn srgb_to_linear(c: f32) -> f32 {
 
 /// `i` modulo `n` (repeat addressing). Bilinear taps are at most one texel
 /// outside the image, so the common case is a compare, not a 64-bit division.
-#[inline]
+#[inline(always)]
 fn wrap(i: i64, n: i64) -> i64 {
     if (0..n).contains(&i) {
         i
@@ -62,7 +62,7 @@ fn wrap(i: i64, n: i64) -> i64 {
 /// (no SSE4.1 `roundss`), exact: below 2^22 adding and removing 1.5 * 2^23
 /// rounds to an integer (no float-to-integer conversion), below 2^31
 /// truncation to i32 is exact; the rest (and NaN) takes the library's floor.
-#[inline]
+#[inline(always)]
 fn floor(x: f32) -> f32 {
     const ROUND: f32 = 12_582_912.0;
     if x.abs() < 4_194_304.0 {
@@ -90,7 +90,8 @@ pub struct TexelFootprint {
 impl TexelFootprint {
     /// The four channels of `tex` (a texture of the size this footprint was
     /// made for) blended at once.
-    #[inline]
+    // Always inlined: a per-pixel call from the renderer's per-ISA kernels.
+    #[inline(always)]
     pub fn sample(&self, tex: &Texture) -> [f32; 4] {
         let Some([ia, ib, ic, id]) = self.texels else {
             return [0.0; 4];
@@ -195,7 +196,7 @@ impl Texture {
     }
 
     /// Where `sample` reads at `uv`.
-    #[inline]
+    #[inline(always)]
     pub fn footprint(&self, uv: Vec2) -> TexelFootprint {
         let (w, h) = (self.width as i64, self.height as i64);
         if w == 0 || h == 0 || !uv.is_finite() {
