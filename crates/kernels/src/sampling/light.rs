@@ -91,6 +91,22 @@ fn as_rect(light: &Light, verts: &[Vec3]) -> Option<(Vec3, Vec3, Vec3)> {
     None
 }
 
+/// What the lane form of a rectangle light's sampler (`draw_lanes`)
+/// needs of a `PreparedLight`: the same numbers `LightSampler` reads.
+#[derive(Debug, Clone, Copy)]
+pub struct RectParts {
+    /// The first vertex and the normal: the plane test of `LightSampler::new`.
+    pub v0: Vec3,
+    pub normal: Vec3,
+    pub two_sided: bool,
+    /// The rectangle's corner and its frame (`RectFrame`).
+    pub corner: Vec3,
+    pub x: DVec3,
+    pub y: DVec3,
+    pub lx: f64,
+    pub ly: f64,
+}
+
 impl PreparedLight {
     pub fn new(light: &Light) -> PreparedLight {
         let n = light.vertices.len().min(MAX_VERTS);
@@ -130,6 +146,26 @@ impl PreparedLight {
             fan_cross,
             rect,
         }
+    }
+
+    /// The light's rectangle sampler parts, when `LightSampler` samples it
+    /// as a rectangle (a true rectangle with at least three vertices).
+    pub fn rect_parts(&self) -> Option<RectParts> {
+        if self.n < 3 {
+            return None;
+        }
+        let (corner, frame) = self.rect.as_ref()?;
+        let (x, y, lx, ly) = frame.parts();
+        Some(RectParts {
+            v0: self.verts[0],
+            normal: self.normal,
+            two_sided: self.two_sided,
+            corner: *corner,
+            x,
+            y,
+            lx,
+            ly,
+        })
     }
 
     /// Distance from `p` along unit `wi` to the light, if the ray hits its

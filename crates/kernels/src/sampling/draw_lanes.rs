@@ -1,0 +1,230 @@
+//! The common case of a pixel's sample in eight lanes, one pixel each: the
+//! light strategy of one-sample MIS on a rectangle light (Ureña's spherical
+//! rectangle), its BRDF value, both strategies' pdfs and the sample's
+//! weight. Each lane's arithmetic is the scalar estimator's
+//! (`penumbra_render::estimate::samples`) operation by operation, so a
+//! lane that reports `ok` holds exactly the direction, distance and weight
+//! the scalar code computes for that pixel, at every ISA level and lane
+//! width; the scalar code stays the definition (and the pixel replay).
+//! A lane that is not `ok` (the BRDF strategy drawn, a fan or area
+//! sampler, a sample the scalar code drops) is for the caller to draw with
+//! the scalar code: the kernel's answer for it means nothing.
+
+use super::lanes8::{
+    D, D3, F, F3, FM, N, add3, clampc, cross, dot, feq, finite3, fmask, fmax, fs, max_element,
+    mul3, scale3, select3, sub3,
+};
+use super::spherical_rect::SphericalRectLanes;
+use super::light::SOLID_ANGLE_AREA_FALLBACK;
+use crate::shading::brdf::{MIN_ALPHA, MIN_COS, alpha_from_roughness};
+use penumbra_scene::color::LUMA;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// One sample of eight pixels, structure of arrays.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DrawLanesIn {
+    /// Lanes that hold a pixel (the others are ignored).
+    pub active: [bool; N],
+    /// The G-buffer sample: position, shading normal, view, material.
+    pub p: F3,
+    pub ns: F3,
+    pub wo: F3,
+    pub diffuse: F3,
+    pub specular: F3,
+    pub roughness: F,
+    /// The chosen light (`RectParts`) and its radiance.
+    pub v0: F3,
+    pub normal: F3,
+    pub two_sided: [bool; N],
+    pub corner: F3,
+    pub fx: D3,
+    pub fy: D3,
+    pub lx: D,
+    pub ly: D,
+    pub radiance: F3,
+    /// Probability of having chosen the light.
+    pub p_choose: F,
+    /// The sample's random numbers: strategy and direction.
+    pub u_strategy: F,
+    pub ux: F,
+    pub uy: F,
+    /// `1 / spp`.
+    pub inv_spp: F,
+}
+
+/// What the lanes drew: where `ok`, the sample's unit direction,
+/// distance to the light and weight (`U_N`'s term, and `S_N`'s when its
+/// shadow ray is unoccluded).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DrawLanesOut {
+    pub ok: [bool; N],
+    pub wi: F3,
+    pub dist: F,
+    pub weight: F3,
+}
+
+/// glam's `Vec3::dot` with a constant.
+#[inline(always)]
+fn dot_c(a: &F3, c: glam::Vec3) -> F {
+    a[0] * fs(c.x) + a[1] * fs(c.y) + a[2] * fs(c.z)
+}
+
+/// `brdf_sample::spec_lobe_probability` per lane.
+#[inline(always)]
+fn spec_lobe_probability(diffuse: &F3, specular: &F3, n_dot_wo: F) -> F {
+    let wd = fmax(dot_c(diffuse, LUMA), fs(0.0));
+    let has = max_element(specular).gt(fs(0.0));
+    let m = (fs(1.0) - clampc(n_dot_wo, 0.0, 1.0)).map(|x| x.powi(5));
+    let one_minus = sub3(&[fs(1.0); 3], specular);
+    let ws = fmax(dot_c(&add3(specular, &scale3(&one_minus, m)), LUMA), fs(0.0));
+    let ws = has.select(ws, fs(0.0));
+    let total = wd + ws;
+    total.gt(fs(0.0)).select(ws / total, fs(0.0))
+}
+
+/// `brdf::smith_lambda` per lane.
+#[inline(always)]
+fn smith_lambda(alpha: F, w: &F3) -> F {
+    let cos2 = fmax(w[2] * w[2], fs(MIN_COS * MIN_COS));
+    let sin2 = w[0] * w[0] + w[1] * w[1];
+    let a = alpha * alpha * sin2 / cos2;
+    a / (fs(2.0) * ((fs(1.0) + a).sqrt() + fs(1.0)))
+}
+
+/// `brdf::ggx_d` per lane, for lanes whose `h.z > 0` (the others: 0).
+#[inline(always)]
+fn ggx_d(alpha: F, h: &F3) -> F {
+    let a2 = alpha * alpha;
+    let t = h[0] * h[0] + h[1] * h[1] + a2 * h[2] * h[2];
+    let d = a2 / (fs(PI) * t * t);
+    h[2].le(fs(0.0)).select(fs(0.0), d)
+}
+
+/// `brdf::eval_local` per lane, for lanes whose `wi.z > 0`.
+#[inline(always)]
+fn eval_local(wi: &F3, wo: &F3, diffuse: &F3, specular: &F3, alpha: F) -> F3 {
+    // spec_local: the half vector, D, G2.
+    let h = add3(wi, wo);
+    let l2 = dot(&h, &h);
+    let h = [h[0] / l2.sqrt(), h[1] / l2.sqrt(), h[2] / l2.sqrt()];
+    let d = ggx_d(alpha, &h);
+    let g = fs(1.0) / (fs(1.0) + smith_lambda(alpha, wi) + smith_lambda(alpha, wo));
+    let ci = fmax(wi[2], fs(MIN_COS));
+    let co = fmax(wo[2].abs(), fs(MIN_COS));
+    let s = d * g / (fs(4.0) * ci * co);
+    let cos_oh = dot(wo, &h);
+    let none = l2.gt(fs(1e-20)).invert().or(feq(d, fs(0.0)));
+    let (s, cos_oh) = (none.select(fs(0.0), s), none.select(fs(0.0), cos_oh));
+    // schlick(specular, cos_oh) * s, plus the diffuse lobe.
+    let m = fs(1.0) - clampc(cos_oh, 0.0, 1.0);
+    let m2 = m * m;
+    let weight = m2 * m2 * m;
+    let lambert = scale3(diffuse, fs(1.0 / PI));
+    let fresnel = add3(specular, &scale3(&sub3(&[fs(1.0); 3], specular), weight));
+    let full = add3(&lambert, &scale3(&fresnel, s));
+    let has = max_element(specular).gt(fs(0.0));
+    select3(has, &full, &lambert)
+}
+
+/// `brdf_sample::brdf_pdf_local` per lane.
+#[inline(always)]
+fn brdf_pdf_local(wo: &F3, wi: &F3, alpha: F, p_spec: F) -> F {
+    // vndf_pdf
+    let a = fmax(alpha, fs(MIN_ALPHA));
+    let h = add3(wo, wi);
+    let rcp = fs(1.0) / dot(&h, &h).sqrt();
+    let h = scale3(&h, rcp);
+    let v = fs(1.0) / (fs(1.0) + smith_lambda(a, wo)) * ggx_d(a, &h) / (fs(4.0) * wo[2]);
+    let zero = wo[2]
+        .le(fs(0.0))
+        .or(rcp.finite().and(rcp.gt(fs(0.0))).invert())
+        .or(dot(wo, &h).le(fs(0.0)))
+        .or(h[2].le(fs(0.0)));
+    let v = zero.select(fs(0.0), v);
+    let spec = p_spec.gt(fs(0.0)).select(p_spec * v, fs(0.0));
+    let diff = p_spec.lt(fs(1.0)).select(
+        (fs(1.0) - p_spec) * fmax(wi[2], fs(0.0)) * fs(FRAC_1_PI),
+        fs(0.0),
+    );
+    spec + diff
+}
+
+/// One sample of eight pixels by the light strategy on a rectangle light:
+/// the scalar estimator's arithmetic per lane (see the module notes).
+#[inline(always)]
+pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
+    let (n, wo) = (&i.ns, &i.wo);
+    let alpha = i.roughness.map(alpha_from_roughness);
+    let n_dot_wo = dot(n, wo);
+    let p_spec = spec_lobe_probability(&i.diffuse, &i.specular, n_dot_wo);
+    let two_alpha = fs(2.0) * alpha;
+    let lobe_solid_angle = fs(4.0 * PI) * (two_alpha * two_alpha);
+    // ShadingBasis::from_normal_view.
+    let t = sub3(wo, &scale3(n, n_dot_wo));
+    let l2 = dot(&t, &t);
+    let tx = [t[0] / l2.sqrt(), t[1] / l2.sqrt(), t[2] / l2.sqrt()];
+    let sign = n[2].map(f32::signum);
+    let a = fs(-1.0) / (sign + n[2]);
+    let b = n[0] * n[1] * a;
+    let any = [b, sign + n[1] * n[1] * a, -n[1]];
+    let fx = select3(l2.gt(fs(1e-12)), &tx, &any);
+    let fy = cross(n, &fx);
+    let to_local = |v: &F3| [dot(v, &fx), dot(v, &fy), dot(v, n)];
+    let wo_l = to_local(wo);
+    // LightSampler::new: the plane test, then the rectangle.
+    let plane = dot(&sub3(&i.v0, &i.p), &i.normal);
+    let two_sided = FM::from_fn(|l| i.two_sided[l]);
+    let plane_ok = plane
+        .finite()
+        .and(feq(plane, fs(0.0)).invert())
+        .and(two_sided.or(plane.gt(fs(0.0)).invert()));
+    let corner = sub3(&i.corner, &i.p);
+    let (rect, rect_ok) = SphericalRectLanes::from_frame(&corner, &i.fx, &i.fy, i.lx, i.ly);
+    let omega = rect.solid_angle;
+    let omega_ok = omega
+        .gt(fs(0.0))
+        .and(omega.finite())
+        .and(omega.lt(fs(SOLID_ANGLE_AREA_FALLBACK)).invert());
+    // light_strategy_probability, and the light strategy's draw.
+    let spec = clampc(lobe_solid_angle / (lobe_solid_angle + omega), 0.1, 0.9);
+    let p_light = p_spec
+        .le(fs(0.0))
+        .select(fs(1.0), (fs(1.0) - p_spec) + p_spec * spec);
+    let use_light = p_light.ge(fs(1.0)).or(i.u_strategy.lt(p_light));
+    let q = rect.sample(i.ux, i.uy);
+    let dist = dot(&q, &q).sqrt();
+    let wi = [q[0] / dist, q[1] / dist, q[2] / dist];
+    let pdf_light = fs(1.0) / omega;
+    let valid = pdf_light
+        .finite()
+        .and(pdf_light.gt(fs(0.0)))
+        .and(dist.finite())
+        .and(dist.gt(fs(0.0)));
+    let cos = dot(n, &wi);
+    let wi_l = to_local(&wi);
+    let pdf_brdf = p_light
+        .lt(fs(1.0))
+        .select(brdf_pdf_local(&wo_l, &wi_l, alpha, p_spec), fs(0.0));
+    let pdf = p_light * pdf_light + (fs(1.0) - p_light) * pdf_brdf;
+    let f = eval_local(&wi_l, &wo_l, &i.diffuse, &i.specular, alpha);
+    let k = cos * i.inv_spp / (i.p_choose * pdf);
+    let w = scale3(&mul3(&f, &i.radiance), k);
+    let pdf_ok = pdf.gt(fs(0.0)).and(pdf.finite());
+    let w_ok = finite3(&w).and(max_element(&w).gt(fs(0.0)));
+    let active = FM::from_fn(|l| i.active[l]);
+    let ok = active
+        .and(plane_ok)
+        .and(fmask(rect_ok))
+        .and(omega_ok)
+        .and(use_light)
+        .and(valid)
+        .and(cos.gt(fs(0.0)))
+        .and(pdf_ok)
+        .and(w_ok);
+    DrawLanesOut {
+        ok: std::array::from_fn(|l| ok.lane(l)),
+        wi,
+        dist,
+        weight: w,
+    }
+}
