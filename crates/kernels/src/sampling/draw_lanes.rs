@@ -1,21 +1,23 @@
-//! The common case of a pixel's sample in eight lanes, one pixel each: the
-//! light strategy of one-sample MIS on a rectangle light (Ureña's spherical
-//! rectangle), its BRDF value, both strategies' pdfs and the sample's
+//! The common case of a pixel's sample in eight lanes, one pixel each:
+//! one-sample MIS on a rectangle light, either strategy (Ureña's spherical
+//! rectangle, or the BRDF's lobes and the light's distance along the
+//! direction), its BRDF value, both strategies' pdfs and the sample's
 //! weight. Each lane's arithmetic is the scalar estimator's
 //! (`penumbra_render::estimate::samples`) operation by operation, so a
 //! lane that reports `ok` holds exactly the direction, distance and weight
 //! the scalar code computes for that pixel, at every ISA level and lane
 //! width; the scalar code stays the definition (and the pixel replay).
-//! A lane that is not `ok` (the BRDF strategy drawn, a fan or area
-//! sampler, a sample the scalar code drops) is for the caller to draw with
+//! A lane that is not `ok` (a fan or area sampler, a sample the scalar
+//! code drops) is for the caller to draw with
 //! the scalar code: the kernel's answer for it means nothing.
 
 use super::lanes8::{
     D, D3, F, F3, FM, N, add3, clampc, cross, dot, feq, finite3, fmask, fmax, fs, max_element,
-    mul3, scale3, select3, sub3,
+    mul3, narrow, normalize, scale3, select3, sub3, widen,
 };
 use super::spherical_rect::SphericalRectLanes;
-use super::light::SOLID_ANGLE_AREA_FALLBACK;
+use super::light::{EDGE_SLACK, SOLID_ANGLE_AREA_FALLBACK};
+use super::trig;
 use crate::shading::brdf::{MIN_ALPHA, MIN_COS, alpha_from_roughness};
 use penumbra_scene::color::LUMA;
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -42,10 +44,15 @@ pub struct DrawLanesIn {
     pub lx: D,
     pub ly: D,
     pub radiance: F3,
+    /// Its vertices, and per edge the inward normal and length.
+    pub verts: [F3; 4],
+    pub inward: [F3; 4],
+    pub edge_len: [F; 4],
     /// Probability of having chosen the light.
     pub p_choose: F,
-    /// The sample's random numbers: strategy and direction.
+    /// The sample's random numbers: strategy, lobe and direction.
     pub u_strategy: F,
+    pub u_lobe: F,
     pub ux: F,
     pub uy: F,
     /// `1 / spp`.
@@ -149,7 +156,82 @@ fn brdf_pdf_local(wo: &F3, wi: &F3, alpha: F, p_spec: F) -> F {
     spec + diff
 }
 
-/// One sample of eight pixels by the light strategy on a rectangle light:
+/// `brdf_sample::sample_brdf` per lane, less its final pdf test (the
+/// caller's MIS pdf test covers it: a zero BRDF pdf makes the lane's
+/// `brdf_pdf_local` zero too, and the scalar code drops both): the world
+/// direction, and the lanes where it is defined.
+#[inline(always)]
+fn sample_brdf(n: &F3, wo: &F3, alpha: F, p_spec: F, u_lobe: F, ux: F, uy: F) -> (F3, FM) {
+    // onb(n)
+    let sign = fs(1.0).zip(n[2], f32::copysign);
+    let a = fs(-1.0) / (sign + n[2]);
+    let b = n[0] * n[1] * a;
+    let t = [fs(1.0) + sign * n[0] * n[0] * a, sign * b, -sign * n[0]];
+    let bb = [b, sign + n[1] * n[1] * a, -n[1]];
+    let wo_l = [dot(wo, &t), dot(wo, &bb), dot(wo, n)];
+    let spec = u_lobe.lt(p_spec);
+    // vndf_sample(wo_l, alpha, u)
+    let al = fmax(alpha, fs(MIN_ALPHA));
+    let v = normalize(&[al * wo_l[0], al * wo_l[1], wo_l[2]]);
+    let phi = fs(2.0 * PI) * ux;
+    let z = (fs(1.0) - uy) * (fs(1.0) + v[2]) - v[2];
+    let sin_theta = clampc(fs(1.0) - z * z, 0.0, 1.0).sqrt();
+    // cosine_hemisphere(u)
+    let ox = fs(2.0) * ux - fs(1.0);
+    let oy = fs(2.0) * uy - fs(1.0);
+    let centre = feq(ox, fs(0.0)).and(feq(oy, fs(0.0)));
+    let wide = ox.abs().gt(oy.abs());
+    let angle_d = wide.select(
+        fs(PI / 4.0) * (oy / ox),
+        fs(PI / 2.0) - fs(PI / 4.0) * (ox / oy),
+    );
+    // One sin_cos per lane: of the lobe's own angle.
+    let (sa, ca) = trig::sin_cos_lanes(widen(spec.select(phi, angle_d)));
+    let (sa, ca) = (narrow(sa), narrow(ca));
+    let h = add3(&[sin_theta * ca, sin_theta * sa, z], &v);
+    let h = normalize(&[al * h[0], al * h[1], fmax(h[2], fs(0.0))]);
+    let k = fs(2.0) * dot(&wo_l, &h);
+    let wi_spec = sub3(&scale3(&h, k), &wo_l);
+    let r = wide.select(ox, oy);
+    let d = [r * ca, r * sa];
+    let d = [
+        centre.select(fs(0.0), d[0]),
+        centre.select(fs(0.0), d[1]),
+    ];
+    let dz = fmax(fs(1.0) - (d[0] * d[0] + d[1] * d[1]), fs(0.0)).sqrt();
+    let wi_l = select3(spec, &wi_spec, &[d[0], d[1], dz]);
+    let ok = wo_l[2].gt(fs(0.0)).and(wi_l[2].gt(fs(0.0)));
+    let pdf = brdf_pdf_local(&wo_l, &wi_l, alpha, p_spec);
+    let ok = ok.and(pdf.gt(fs(0.0))).and(pdf.finite());
+    // to_world, normalized.
+    let w = add3(
+        &add3(&scale3(&t, wi_l[0]), &scale3(&bb, wi_l[1])),
+        &scale3(n, wi_l[2]),
+    );
+    (normalize(&w), ok)
+}
+
+/// `PreparedLight::intersect_plane` per lane for a four-vertex light: the
+/// distance along `wi`, and the lanes where it hits the emitting side.
+#[inline(always)]
+fn intersect_quad(i: &DrawLanesIn, plane: F, two_sided: FM, wi: &F3) -> (F, FM) {
+    let cos = dot(wi, &i.normal);
+    let facing = feq(cos, fs(0.0))
+        .invert()
+        .and(two_sided.or(cos.gt(fs(0.0)).invert()));
+    let t = plane / cos;
+    let mut ok = facing.and(t.gt(fs(0.0))).and(t.finite());
+    let q = scale3(wi, t);
+    for e in 0..4 {
+        let a = sub3(&i.verts[e], &i.p);
+        let len = i.edge_len[e];
+        let tol = fs(EDGE_SLACK) * len * (t + len);
+        ok = ok.and(dot(&i.inward[e], &sub3(&q, &a)).lt(-tol).invert());
+    }
+    (t, ok)
+}
+
+/// One sample of eight pixels on a rectangle light:
 /// the scalar estimator's arithmetic per lane (see the module notes).
 #[inline(always)]
 pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
@@ -192,8 +274,15 @@ pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
         .select(fs(1.0), (fs(1.0) - p_spec) + p_spec * spec);
     let use_light = p_light.ge(fs(1.0)).or(i.u_strategy.lt(p_light));
     let q = rect.sample(i.ux, i.uy);
-    let dist = dot(&q, &q).sqrt();
-    let wi = [q[0] / dist, q[1] / dist, q[2] / dist];
+    let dist_l = dot(&q, &q).sqrt();
+    let wi_light = [q[0] / dist_l, q[1] / dist_l, q[2] / dist_l];
+    // The BRDF strategy: a direction from the lobes, then the light's
+    // distance and pdf along it (`LightSampler::pdf`).
+    let (wi_brdf, brdf_ok) = sample_brdf(n, wo, alpha, p_spec, i.u_lobe, i.ux, i.uy);
+    let (dist_b, hit) = intersect_quad(i, plane, two_sided, &wi_brdf);
+    let wi = select3(use_light, &wi_light, &wi_brdf);
+    let dist = use_light.select(dist_l, dist_b);
+    let drawn = use_light.or(brdf_ok.and(hit));
     let pdf_light = fs(1.0) / omega;
     let valid = pdf_light
         .finite()
@@ -216,7 +305,7 @@ pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
         .and(plane_ok)
         .and(fmask(rect_ok))
         .and(omega_ok)
-        .and(use_light)
+        .and(drawn)
         .and(valid)
         .and(cos.gt(fs(0.0)))
         .and(pdf_ok)

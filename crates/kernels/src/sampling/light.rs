@@ -105,6 +105,11 @@ pub struct RectParts {
     pub y: DVec3,
     pub lx: f64,
     pub ly: f64,
+    /// The four vertices, and per edge its inward normal and length: the
+    /// inside test of `LightSampler::pdf`.
+    pub verts: [Vec3; 4],
+    pub inward: [Vec3; 4],
+    pub edge_len: [f32; 4],
 }
 
 impl PreparedLight {
@@ -149,9 +154,9 @@ impl PreparedLight {
     }
 
     /// The light's rectangle sampler parts, when `LightSampler` samples it
-    /// as a rectangle (a true rectangle with at least three vertices).
+    /// as a rectangle (a true rectangle given by its four vertices).
     pub fn rect_parts(&self) -> Option<RectParts> {
-        if self.n < 3 {
+        if self.n != 4 {
             return None;
         }
         let (corner, frame) = self.rect.as_ref()?;
@@ -165,6 +170,14 @@ impl PreparedLight {
             y,
             lx,
             ly,
+            verts: [self.verts[0], self.verts[1], self.verts[2], self.verts[3]],
+            inward: [self.inward[0], self.inward[1], self.inward[2], self.inward[3]],
+            edge_len: [
+                self.edge_len[0],
+                self.edge_len[1],
+                self.edge_len[2],
+                self.edge_len[3],
+            ],
         })
     }
 
@@ -428,4 +441,4 @@ pub fn intersect_light(light: &Light, p: Vec3, wi: Vec3) -> Option<f32> {
 }
 
 /// Relative slack of the point-in-polygon test (a few dozen ulps).
-const EDGE_SLACK: f32 = 2e-6;
+pub(crate) const EDGE_SLACK: f32 = 2e-6;

@@ -490,8 +490,14 @@ fn draw_in_lanes(
             c.lx.0[l] = r.lx;
             c.ly.0[l] = r.ly;
             set3(&mut c.radiance, l, declared[li].radiance);
+            for e in 0..4 {
+                set3(&mut c.verts[e], l, r.verts[e]);
+                set3(&mut c.inward[e], l, r.inward[e]);
+                c.edge_len[e].0[l] = r.edge_len[e];
+            }
             c.p_choose.0[l] = p_choose;
             c.u_strategy.0[l] = scratch.strategy[i];
+            c.u_lobe.0[l] = scratch.lobe[i];
             c.ux.0[l] = scratch.dir_x[i];
             c.uy.0[l] = scratch.dir_y[i];
             c.inv_spp.0[l] = inv_spp;
