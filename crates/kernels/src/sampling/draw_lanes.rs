@@ -4,19 +4,18 @@
 //! direction), its BRDF value, both strategies' pdfs and the sample's
 //! weight. Each lane's arithmetic is the scalar estimator's
 //! (`penumbra_render::estimate::samples`) operation by operation, so a
-//! lane that reports `ok` holds exactly the direction, distance and weight
+//! lane that reports `emit` holds exactly the direction, distance and weight
 //! the scalar code computes for that pixel, at every ISA level and lane
 //! width; the scalar code stays the definition (and the pixel replay).
-//! A lane that is not `ok` (a fan or area sampler, a sample the scalar
-//! code drops) is for the caller to draw with
-//! the scalar code: the kernel's answer for it means nothing.
+//! A lane that is not `handled` (a fan or area sampler) is for the caller
+//! to draw with the scalar code: the kernel's answer for it means nothing.
 
 use super::lanes8::{
-    D, D3, F, F3, FM, N, add3, clampc, cross, dot, feq, finite3, fmask, fmax, fs, max_element,
+    D, D3, F, F3, FM, add3, clampc, cross, dot, ds, feq, finite, finite3, fmax, fs, max_element,
     mul3, narrow, normalize, scale3, select3, sub3, widen,
 };
-use super::spherical_rect::SphericalRectLanes;
 use super::light::{EDGE_SLACK, SOLID_ANGLE_AREA_FALLBACK};
+use super::spherical_rect::SphericalRectLanes;
 use super::trig;
 use crate::shading::brdf::{MIN_ALPHA, MIN_COS, alpha_from_roughness};
 use penumbra_scene::color::LUMA;
@@ -25,8 +24,10 @@ use std::f32::consts::{FRAC_1_PI, PI};
 /// One sample of eight pixels, structure of arrays.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct DrawLanesIn {
-    /// Lanes that hold a pixel (the others are ignored).
-    pub active: [bool; N],
+    /// 1 in lanes that hold a pixel's sample on a rectangle light, 0 in the
+    /// others (ignored). Flags are `f32` lanes, not `bool`s: a mask built
+    /// from bytes kept LLVM from vectorising the selects that use it.
+    pub active: F,
     /// The G-buffer sample: position, shading normal, view, material.
     pub p: F3,
     pub ns: F3,
@@ -37,7 +38,8 @@ pub struct DrawLanesIn {
     /// The chosen light (`RectParts`) and its radiance.
     pub v0: F3,
     pub normal: F3,
-    pub two_sided: [bool; N],
+    /// 1 where the light is two-sided, else 0.
+    pub two_sided: F,
     pub corner: F3,
     pub fx: D3,
     pub fy: D3,
@@ -59,12 +61,16 @@ pub struct DrawLanesIn {
     pub inv_spp: F,
 }
 
-/// What the lanes drew: where `ok`, the sample's unit direction,
-/// distance to the light and weight (`U_N`'s term, and `S_N`'s when its
-/// shadow ray is unoccluded).
+/// What the lanes drew. `handled` (1 or 0): the lane's sample is decided
+/// here, either drawn or dropped as the scalar code drops it; elsewhere
+/// (0) the caller draws it with the scalar code. `emit` (1 or 0): a
+/// handled sample that was drawn, with its unit direction, distance to
+/// the light and weight (`U_N`'s term, and `S_N`'s when its shadow ray is
+/// unoccluded).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct DrawLanesOut {
-    pub ok: [bool; N],
+    pub handled: F,
+    pub emit: F,
     pub wi: F3,
     pub dist: F,
     pub weight: F3,
@@ -76,6 +82,12 @@ fn dot_c(a: &F3, c: glam::Vec3) -> F {
     a[0] * fs(c.x) + a[1] * fs(c.y) + a[2] * fs(c.z)
 }
 
+/// `ShadingBasis::to_local` per lane.
+#[inline(always)]
+fn to_local(v: &F3, x: &F3, y: &F3, z: &F3) -> F3 {
+    [dot(v, x), dot(v, y), dot(v, z)]
+}
+
 /// `brdf_sample::spec_lobe_probability` per lane.
 #[inline(always)]
 fn spec_lobe_probability(diffuse: &F3, specular: &F3, n_dot_wo: F) -> F {
@@ -83,7 +95,10 @@ fn spec_lobe_probability(diffuse: &F3, specular: &F3, n_dot_wo: F) -> F {
     let has = max_element(specular).gt(fs(0.0));
     let m = (fs(1.0) - clampc(n_dot_wo, 0.0, 1.0)).map(|x| x.powi(5));
     let one_minus = sub3(&[fs(1.0); 3], specular);
-    let ws = fmax(dot_c(&add3(specular, &scale3(&one_minus, m)), LUMA), fs(0.0));
+    let ws = fmax(
+        dot_c(&add3(specular, &scale3(&one_minus, m)), LUMA),
+        fs(0.0),
+    );
     let ws = has.select(ws, fs(0.0));
     let total = wd + ws;
     total.gt(fs(0.0)).select(ws / total, fs(0.0))
@@ -144,7 +159,7 @@ fn brdf_pdf_local(wo: &F3, wi: &F3, alpha: F, p_spec: F) -> F {
     let v = fs(1.0) / (fs(1.0) + smith_lambda(a, wo)) * ggx_d(a, &h) / (fs(4.0) * wo[2]);
     let zero = wo[2]
         .le(fs(0.0))
-        .or(rcp.finite().and(rcp.gt(fs(0.0))).invert())
+        .or(finite(rcp).and(rcp.gt(fs(0.0))).invert())
         .or(dot(wo, &h).le(fs(0.0)))
         .or(h[2].le(fs(0.0)));
     let v = zero.select(fs(0.0), v);
@@ -194,15 +209,12 @@ fn sample_brdf(n: &F3, wo: &F3, alpha: F, p_spec: F, u_lobe: F, ux: F, uy: F) ->
     let wi_spec = sub3(&scale3(&h, k), &wo_l);
     let r = wide.select(ox, oy);
     let d = [r * ca, r * sa];
-    let d = [
-        centre.select(fs(0.0), d[0]),
-        centre.select(fs(0.0), d[1]),
-    ];
+    let d = [centre.select(fs(0.0), d[0]), centre.select(fs(0.0), d[1])];
     let dz = fmax(fs(1.0) - (d[0] * d[0] + d[1] * d[1]), fs(0.0)).sqrt();
     let wi_l = select3(spec, &wi_spec, &[d[0], d[1], dz]);
     let ok = wo_l[2].gt(fs(0.0)).and(wi_l[2].gt(fs(0.0)));
     let pdf = brdf_pdf_local(&wo_l, &wi_l, alpha, p_spec);
-    let ok = ok.and(pdf.gt(fs(0.0))).and(pdf.finite());
+    let ok = ok.and(pdf.gt(fs(0.0))).and(finite(pdf));
     // to_world, normalized.
     let w = add3(
         &add3(&scale3(&t, wi_l[0]), &scale3(&bb, wi_l[1])),
@@ -220,7 +232,7 @@ fn intersect_quad(i: &DrawLanesIn, plane: F, two_sided: FM, wi: &F3) -> (F, FM) 
         .invert()
         .and(two_sided.or(cos.gt(fs(0.0)).invert()));
     let t = plane / cos;
-    let mut ok = facing.and(t.gt(fs(0.0))).and(t.finite());
+    let mut ok = facing.and(t.gt(fs(0.0))).and(finite(t));
     let q = scale3(wi, t);
     for e in 0..4 {
         let a = sub3(&i.verts[e], &i.p);
@@ -251,22 +263,23 @@ pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
     let any = [b, sign + n[1] * n[1] * a, -n[1]];
     let fx = select3(l2.gt(fs(1e-12)), &tx, &any);
     let fy = cross(n, &fx);
-    let to_local = |v: &F3| [dot(v, &fx), dot(v, &fy), dot(v, n)];
-    let wo_l = to_local(wo);
+    let wo_l = to_local(wo, &fx, &fy, n);
     // LightSampler::new: the plane test, then the rectangle.
     let plane = dot(&sub3(&i.v0, &i.p), &i.normal);
-    let two_sided = FM::from_fn(|l| i.two_sided[l]);
-    let plane_ok = plane
-        .finite()
+    let two_sided = i.two_sided.gt(fs(0.5));
+    let plane_ok = finite(plane)
         .and(feq(plane, fs(0.0)).invert())
         .and(two_sided.or(plane.gt(fs(0.0)).invert()));
     let corner = sub3(&i.corner, &i.p);
     let (rect, rect_ok) = SphericalRectLanes::from_frame(&corner, &i.fx, &i.fy, i.lx, i.ly);
     let omega = rect.solid_angle;
-    let omega_ok = omega
-        .gt(fs(0.0))
-        .and(omega.finite())
-        .and(omega.lt(fs(SOLID_ANGLE_AREA_FALLBACK)).invert());
+    let rect_ok = narrow(rect_ok.select(ds(1.0), ds(0.0))).gt(fs(0.5));
+    let sampler_ok = plane_ok
+        .and(rect_ok)
+        .and(omega.gt(fs(0.0)))
+        .and(finite(omega));
+    // Below the fallback solid angle the scalar sampler samples by area.
+    let area = sampler_ok.and(omega.lt(fs(SOLID_ANGLE_AREA_FALLBACK)));
     // light_strategy_probability, and the light strategy's draw.
     let spec = clampc(lobe_solid_angle / (lobe_solid_angle + omega), 0.1, 0.9);
     let p_light = p_spec
@@ -284,13 +297,12 @@ pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
     let dist = use_light.select(dist_l, dist_b);
     let drawn = use_light.or(brdf_ok.and(hit));
     let pdf_light = fs(1.0) / omega;
-    let valid = pdf_light
-        .finite()
+    let valid = finite(pdf_light)
         .and(pdf_light.gt(fs(0.0)))
-        .and(dist.finite())
+        .and(finite(dist))
         .and(dist.gt(fs(0.0)));
     let cos = dot(n, &wi);
-    let wi_l = to_local(&wi);
+    let wi_l = to_local(&wi, &fx, &fy, n);
     let pdf_brdf = p_light
         .lt(fs(1.0))
         .select(brdf_pdf_local(&wo_l, &wi_l, alpha, p_spec), fs(0.0));
@@ -298,20 +310,20 @@ pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
     let f = eval_local(&wi_l, &wo_l, &i.diffuse, &i.specular, alpha);
     let k = cos * i.inv_spp / (i.p_choose * pdf);
     let w = scale3(&mul3(&f, &i.radiance), k);
-    let pdf_ok = pdf.gt(fs(0.0)).and(pdf.finite());
+    let pdf_ok = pdf.gt(fs(0.0)).and(finite(pdf));
     let w_ok = finite3(&w).and(max_element(&w).gt(fs(0.0)));
-    let active = FM::from_fn(|l| i.active[l]);
-    let ok = active
-        .and(plane_ok)
-        .and(fmask(rect_ok))
-        .and(omega_ok)
+    let handled = i.active.gt(fs(0.5)).and_not(area);
+    let emit = handled
+        .and(sampler_ok)
         .and(drawn)
         .and(valid)
         .and(cos.gt(fs(0.0)))
         .and(pdf_ok)
         .and(w_ok);
+    let flag = |m: FM| m.select(fs(1.0), fs(0.0));
     DrawLanesOut {
-        ok: std::array::from_fn(|l| ok.lane(l)),
+        handled: flag(handled),
+        emit: flag(emit),
         wi,
         dist,
         weight: w,

@@ -228,10 +228,19 @@ pub fn max_element(a: &F3) -> F {
     max(max(a[0], a[1]), a[2])
 }
 
+/// Finite lanes, as `x - x == 0` (NaN for infinities and NaN): written
+/// as `abs(x) < inf`, or as a compare, and joined with a sign test, LLVM
+/// turned it into a floating-point class test that it then ran lane by
+/// lane in integer code.
+#[inline(always)]
+pub fn finite(x: F) -> FM {
+    feq(x - x, fs(0.0))
+}
+
 /// Lanes whose three components are all finite.
 #[inline(always)]
 pub fn finite3(a: &F3) -> FM {
-    a[0].finite().and(a[1].finite()).and(a[2].finite())
+    finite(a[0]).and(finite(a[1])).and(finite(a[2]))
 }
 
 /// One lane of an array of `Vec3` lanes as a `glam::Vec3`.

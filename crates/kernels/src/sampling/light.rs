@@ -171,7 +171,12 @@ impl PreparedLight {
             lx,
             ly,
             verts: [self.verts[0], self.verts[1], self.verts[2], self.verts[3]],
-            inward: [self.inward[0], self.inward[1], self.inward[2], self.inward[3]],
+            inward: [
+                self.inward[0],
+                self.inward[1],
+                self.inward[2],
+                self.inward[3],
+            ],
             edge_len: [
                 self.edge_len[0],
                 self.edge_len[1],

@@ -3,8 +3,8 @@
 //! true rectangles: the construction relies on the edges being orthogonal.
 
 use super::lanes8::{
-    D, D3, DM, F, F3, add3, clampc, clampf, copysign, cross, dnan, dot, ds, fmax, fnan, fs, narrow,
-    narrow3, scale3, widen, widen3,
+    D, D3, DM, F, F3, add3, clampc, clampf, copysign, cross, dnan, dot, ds, finite, fmax, fnan, fs,
+    narrow, narrow3, scale3, widen, widen3,
 };
 use super::trig;
 use glam::{DVec3, Vec2, Vec3};
@@ -243,9 +243,8 @@ impl SphericalRectLanes {
         let (d10_11, d11_01) = (xx1 + y0 * y1 + z2, x0 * x1 + yy1 + z2);
         let den1 = r00 * r10 * r11 + d00_10 * r11 + d00_11 * r10 + d10_11 * r00;
         let den2 = r00 * r11 * r01 + d00_11 * r01 + d00_01 * r11 + d11_01 * r00;
-        let solid_angle = narrow(
-            ds(2.0) * trig::atan2_lanes(num * (den1 + den2), den1 * den2 - num * num),
-        );
+        let solid_angle =
+            narrow(ds(2.0) * trig::atan2_lanes(num * (den1 + den2), den1 * den2 - num * num));
         let r0 = (z2 + yy0).sqrt();
         let r2 = (z2 + yy1).sqrt();
         let r3 = (z2 + xx0).sqrt();
@@ -280,7 +279,7 @@ impl SphericalRectLanes {
         let cos_au = self.cos_k * ct - self.sin_k * st;
         let fu = (cos_au * self.b0 - self.b1) / sin_au;
         let cu = copysign(fs(1.0) / (fu * fu + self.b0 * self.b0).sqrt(), fu);
-        let cu = cu.finite().select(clampc(cu, -1.0, 1.0), fs(0.0));
+        let cu = finite(cu).select(clampc(cu, -1.0, 1.0), fs(0.0));
         let xu = -(cu * self.z0) / fmax(fs(1.0) - cu * cu, fs(0.0)).sqrt();
         let xu = fnan(xu).select(self.x0, xu);
         let xu = clampf(xu, self.x0, self.x1);
@@ -291,10 +290,9 @@ impl SphericalRectLanes {
         let hv = h0 + uy * (h1 - h0);
         let hv2 = hv * hv;
         let inside = clampf(hv * d / (fs(1.0) - hv2).sqrt(), self.y0, self.y1);
-        let yv = hv2.lt(fs(1.0 - 1e-6)).select(
-            inside,
-            hv.gt(fs(0.0)).select(self.y1, self.y0),
-        );
+        let yv = hv2
+            .lt(fs(1.0 - 1e-6))
+            .select(inside, hv.gt(fs(0.0)).select(self.y1, self.y0));
         let a = scale3(&self.x, xu);
         let b = scale3(&self.y, yv);
         let c = scale3(&self.z, self.z0);

@@ -8,7 +8,7 @@
 //! which is a library call where FMA is absent), so every ISA level gives
 //! the same bits.
 
-use super::lanes8::{D, DM, N, dl, deq, ds, each};
+use super::lanes8::{D, DM, deq, ds};
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// tan(3π/8): above it `atan(x) = π/2 − atan(1/x)`.
@@ -140,16 +140,12 @@ fn atan_nonneg_lanes(x: D) -> D {
     let mid = x.gt(ds(ATAN_SPLIT));
     let base = big.select(ds(FRAC_PI_2), mid.select(ds(FRAC_PI_4), ds(0.0)));
     let lo = big.select(ds(PI_2_LO), mid.select(ds(0.5 * PI_2_LO), ds(0.0)));
-    let t = big.select(
-        ds(-1.0) / x,
-        mid.select((x - ds(1.0)) / (x + ds(1.0)), x),
-    );
+    let t = big.select(ds(-1.0) / x, mid.select((x - ds(1.0)) / (x + ds(1.0)), x));
     let z = t * t;
     let c = |k: f64| ds(k);
     let p = (((c(ATAN_P[0]) * z + c(ATAN_P[1])) * z + c(ATAN_P[2])) * z + c(ATAN_P[3])) * z
         + c(ATAN_P[4]);
-    let q = ((((z + c(ATAN_Q[0])) * z + c(ATAN_Q[1])) * z + c(ATAN_Q[2])) * z + c(ATAN_Q[3]))
-        * z
+    let q = ((((z + c(ATAN_Q[0])) * z + c(ATAN_Q[1])) * z + c(ATAN_Q[2])) * z + c(ATAN_Q[3])) * z
         + c(ATAN_Q[4]);
     base + ((t * (z * p / q) + t) + lo)
 }
@@ -163,7 +159,8 @@ pub fn atan2_lanes(y: D, x: D) -> D {
     let at = atan_nonneg_lanes(ge.select(ay, ax) / ge.select(ax, ay));
     let zero = ds(0.0);
     let a = ge.select(deq(ay, zero).select(zero, at), ds(FRAC_PI_2) - at);
-    let neg_zero = DM::from_fn(|l| x.0[l] == 0.0 && x.0[l].is_sign_negative());
+    // x == 0 with its sign bit set: −0 exactly (an integer compare).
+    let neg_zero = DM::from_fn(|l| x.0[l].to_bits() == (-0.0f64).to_bits());
     let flip = x.lt(zero).or(neg_zero.and(deq(ay, zero)));
     let a = flip.select(ds(PI) - a, a);
     a.zip(y, f64::copysign)
@@ -174,11 +171,18 @@ pub fn atan2_lanes(y: D, x: D) -> D {
 #[inline(always)]
 pub fn sin_cos_lanes(x: D) -> (D, D) {
     let ax = x.abs();
-    // The octant as an i32 (a vector conversion at every level); the
-    // scalar form's u64 agrees on the whole range above.
-    let j: [i32; N] = each(|l| (ax.0[l] * (4.0 / PI)) as i32);
-    let j: [i32; N] = each(|l| j[l] + (j[l] & 1));
-    let y = dl(|l| f64::from(j[l]));
+    // The octant, rounded up to even, in floating point (a vector
+    // rounding at every level): the scalar form's u64 gives the same
+    // integer on the whole range above.
+    let j = (ax * ds(4.0 / PI)).map(f64::trunc);
+    let half = (j * ds(0.5)).map(f64::trunc);
+    let y = j + (j - ds(2.0) * half);
+    // Quadrant bits of y / 2 (even, so y / 2 is an integer).
+    let k = y * ds(0.5);
+    let k2 = (k * ds(0.5)).map(f64::trunc);
+    let q1 = (k - ds(2.0) * k2).gt(ds(0.5));
+    let k4 = (k * ds(0.25)).map(f64::trunc);
+    let q2 = (k2 - ds(2.0) * k4).gt(ds(0.5));
     let z = ((ax - y * ds(DP1)) - y * ds(DP2)) - y * ds(DP3);
     let zz = z * z;
     let poly = |c: &[f64; 6]| {
@@ -187,8 +191,6 @@ pub fn sin_cos_lanes(x: D) -> (D, D) {
     };
     let s = z + z * zz * poly(&SIN_C);
     let c = ds(1.0) - ds(0.5) * zz + zz * zz * poly(&COS_C);
-    let q1 = DM::from_fn(|l| (j[l] >> 1) & 1 == 1);
-    let q2 = DM::from_fn(|l| (j[l] >> 1) & 2 == 2);
     // Rotate (s, c) by q·π/2: odd quadrants swap, quadrants 1 and 2 negate
     // the sine, 2 and 3 the cosine.
     let (sw, cw) = (q1.select(c, s), q1.select(-s, c));

@@ -433,10 +433,10 @@ pub fn draw_samples(
 }
 
 /// The MIS samples of a band in lanes: each (pixel, sample) is a lane of
-/// `draw_light_lanes`, whose `ok` lanes hold exactly what the scalar
-/// `draw` computes for them (the same operations in the same order);
-/// every other sample (another sampler or strategy, a dropped sample, a
-/// pixel that is no surface) is drawn by `draw` itself. Results go out in
+/// `draw_light_lanes`, whose handled lanes hold exactly what the scalar
+/// `draw` computes for them, a sample or a drop (the same operations in
+/// the same order); every other sample (a fan or area sampler) is drawn
+/// by `draw` itself, and a pixel that is no surface draws nothing. Results go out in
 /// the scalar order, pixel by pixel and sample by sample, so `U_N` and the
 /// shadow batch are the same bits as the scalar loop's.
 fn draw_in_lanes(
@@ -465,7 +465,7 @@ fn draw_in_lanes(
         for s in 0..spp as usize {
             let e = j * spp as usize + s;
             let (c, l) = (&mut scratch.lanes_in[e / LANES], e % LANES);
-            c.active[l] = false;
+            c.active.0[l] = 0.0;
             if g.kind != PixelKind::Surface {
                 continue;
             }
@@ -474,7 +474,7 @@ fn draw_in_lanes(
             let Some(r) = scratch.rects[li] else {
                 continue;
             };
-            c.active[l] = true;
+            c.active.0[l] = 1.0;
             set3(&mut c.p, l, g.position);
             set3(&mut c.ns, l, g.ns);
             set3(&mut c.wo, l, g.wo);
@@ -483,7 +483,7 @@ fn draw_in_lanes(
             c.roughness.0[l] = g.roughness;
             set3(&mut c.v0, l, r.v0);
             set3(&mut c.normal, l, r.normal);
-            c.two_sided[l] = r.two_sided;
+            c.two_sided.0[l] = if r.two_sided { 1.0 } else { 0.0 };
             set3(&mut c.corner, l, r.corner);
             set3d(&mut c.fx, l, r.x);
             set3d(&mut c.fy, l, r.y);
@@ -506,7 +506,7 @@ fn draw_in_lanes(
     // Lanes past the last sample: inactive.
     if let Some(c) = scratch.lanes_in.get_mut(total / LANES) {
         for l in total % LANES..LANES {
-            c.active[l] = false;
+            c.active.0[l] = 0.0;
         }
     }
     penumbra_isa::run(DrawLanesBatch {
@@ -515,6 +515,9 @@ fn draw_in_lanes(
     });
     for (j, &(k, m)) in drawn.iter().enumerate() {
         let g = &band.gbuf[k];
+        if g.kind != PixelKind::Surface {
+            continue;
+        }
         let stream = SampleStream {
             pixel: scratch.pixels[j],
             first: band.first,
@@ -524,7 +527,11 @@ fn draw_in_lanes(
         for s in 0..spp {
             let e = j * spp as usize + s as usize;
             let (o, l) = (&scratch.lanes_out[e / LANES], e % LANES);
-            if o.ok[l] {
+            if o.handled.0[l] != 0.0 {
+                if o.emit.0[l] == 0.0 {
+                    // Dropped, as the scalar draw drops it.
+                    continue;
+                }
                 let w = lane3(&o.weight, l);
                 un[m] += w;
                 let wi = lane3(&o.wi, l);
