@@ -91,6 +91,27 @@ fn as_rect(light: &Light, verts: &[Vec3]) -> Option<(Vec3, Vec3, Vec3)> {
     None
 }
 
+/// What the lane form of a rectangle light's sampler (`draw_lanes`)
+/// needs of a `PreparedLight`: the same numbers `LightSampler` reads.
+#[derive(Debug, Clone, Copy)]
+pub struct RectParts {
+    /// The first vertex and the normal: the plane test of `LightSampler::new`.
+    pub v0: Vec3,
+    pub normal: Vec3,
+    pub two_sided: bool,
+    /// The rectangle's corner and its frame (`RectFrame`).
+    pub corner: Vec3,
+    pub x: DVec3,
+    pub y: DVec3,
+    pub lx: f64,
+    pub ly: f64,
+    /// The four vertices, and per edge its inward normal and length: the
+    /// inside test of `LightSampler::pdf`.
+    pub verts: [Vec3; 4],
+    pub inward: [Vec3; 4],
+    pub edge_len: [f32; 4],
+}
+
 impl PreparedLight {
     pub fn new(light: &Light) -> PreparedLight {
         let n = light.vertices.len().min(MAX_VERTS);
@@ -130,6 +151,39 @@ impl PreparedLight {
             fan_cross,
             rect,
         }
+    }
+
+    /// The light's rectangle sampler parts, when `LightSampler` samples it
+    /// as a rectangle (a true rectangle given by its four vertices).
+    pub fn rect_parts(&self) -> Option<RectParts> {
+        if self.n != 4 {
+            return None;
+        }
+        let (corner, frame) = self.rect.as_ref()?;
+        let (x, y, lx, ly) = frame.parts();
+        Some(RectParts {
+            v0: self.verts[0],
+            normal: self.normal,
+            two_sided: self.two_sided,
+            corner: *corner,
+            x,
+            y,
+            lx,
+            ly,
+            verts: [self.verts[0], self.verts[1], self.verts[2], self.verts[3]],
+            inward: [
+                self.inward[0],
+                self.inward[1],
+                self.inward[2],
+                self.inward[3],
+            ],
+            edge_len: [
+                self.edge_len[0],
+                self.edge_len[1],
+                self.edge_len[2],
+                self.edge_len[3],
+            ],
+        })
     }
 
     /// Distance from `p` along unit `wi` to the light, if the ray hits its
@@ -392,4 +446,4 @@ pub fn intersect_light(light: &Light, p: Vec3, wi: Vec3) -> Option<f32> {
 }
 
 /// Relative slack of the point-in-polygon test (a few dozen ulps).
-const EDGE_SLACK: f32 = 2e-6;
+pub(crate) const EDGE_SLACK: f32 = 2e-6;

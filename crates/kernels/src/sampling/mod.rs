@@ -4,6 +4,8 @@
 //! the renderer combines them.
 
 pub mod brdf_sample;
+pub mod draw_lanes;
+pub mod lanes8;
 pub mod light;
 pub mod mis;
 pub mod sequence;

@@ -2,6 +2,10 @@
 //! "An Area-Preserving Parametrization for Spherical Rectangles"). Only for
 //! true rectangles: the construction relies on the edges being orthogonal.
 
+use super::lanes8::{
+    D, D3, DM, F, F3, add3, clampc, clampf, copysign, cross, dnan, dot, ds, finite, fmax, fnan, fs,
+    narrow, narrow3, scale3, widen, widen3,
+};
 use super::trig;
 use glam::{DVec3, Vec2, Vec3};
 
@@ -174,5 +178,124 @@ impl SphericalRect {
             self.y0
         };
         xu * self.x + yv * self.y + self.z0 * self.z
+    }
+}
+
+impl RectFrame {
+    /// The frame's axes and edge lengths: `(x, y, lx, ly)`.
+    pub(crate) fn parts(&self) -> (DVec3, DVec3, f64, f64) {
+        (self.x, self.y, self.lx, self.ly)
+    }
+}
+
+/// `SphericalRect` for eight viewpoints at once, one per lane, each
+/// lane's numbers the bits `SphericalRect::from_frame` and `sample` give
+/// for it: the same operations in the same order, branches as selects.
+#[derive(Debug, Clone, Copy)]
+pub struct SphericalRectLanes {
+    x: F3,
+    y: F3,
+    z: F3,
+    z0: F,
+    x0: F,
+    x1: F,
+    y0: F,
+    y1: F,
+    b0: F,
+    b1: F,
+    sin_k: F,
+    cos_k: F,
+    pub solid_angle: F,
+}
+
+impl SphericalRectLanes {
+    /// `from_frame` per lane: `corner` relative to the viewpoint, the
+    /// frame's axes `fx`, `fy` and edge lengths `lx`, `ly`. The mask holds
+    /// the lanes where `from_frame` gives a rectangle.
+    #[inline(always)]
+    pub fn from_frame(corner: &F3, fx: &D3, fy: &D3, lx: D, ly: D) -> (SphericalRectLanes, DM) {
+        let c = widen3(corner);
+        let z = cross(fx, fy);
+        let x0 = dot(&c, fx);
+        let y0 = dot(&c, fy);
+        let z0 = dot(&c, &z);
+        let flip = z0.gt(ds(0.0));
+        let z0 = flip.select(-z0, z0);
+        let z = [
+            flip.select(-z[0], z[0]),
+            flip.select(-z[1], z[1]),
+            flip.select(-z[2], z[2]),
+        ];
+        let ok = dnan(z0).or(z0.ge(ds(0.0))).invert();
+        let (x1, y1) = (x0 + lx, y0 + ly);
+        let z2 = z0 * z0;
+        let (xx0, xx1, yy0, yy1) = (x0 * x0, x1 * x1, y0 * y0, y1 * y1);
+        let r00 = (xx0 + yy0 + z2).sqrt();
+        let r10 = (xx1 + yy0 + z2).sqrt();
+        let r11 = (xx1 + yy1 + z2).sqrt();
+        let r01 = (xx0 + yy1 + z2).sqrt();
+        let num = -z0 * lx * ly;
+        let (d00_10, d00_11, d00_01) = (
+            x0 * x1 + yy0 + z2,
+            x0 * x1 + y0 * y1 + z2,
+            xx0 + y0 * y1 + z2,
+        );
+        let (d10_11, d11_01) = (xx1 + y0 * y1 + z2, x0 * x1 + yy1 + z2);
+        let den1 = r00 * r10 * r11 + d00_10 * r11 + d00_11 * r10 + d10_11 * r00;
+        let den2 = r00 * r11 * r01 + d00_11 * r01 + d00_01 * r11 + d11_01 * r00;
+        let solid_angle =
+            narrow(ds(2.0) * trig::atan2_lanes(num * (den1 + den2), den1 * den2 - num * num));
+        let r0 = (z2 + yy0).sqrt();
+        let r2 = (z2 + yy1).sqrt();
+        let r3 = (z2 + xx0).sqrt();
+        let (c2, s2) = (x0 * y1 / (r2 * r3), -z0 * r01 / (r2 * r3));
+        let (c3, s3) = (-x0 * y0 / (r3 * r0), -z0 * r00 / (r3 * r0));
+        let cos_k = c2 * c3 - s2 * s3;
+        let sin_k = -(s2 * c3 + c2 * s3);
+        let r = SphericalRectLanes {
+            x: narrow3(fx),
+            y: narrow3(fy),
+            z: narrow3(&z),
+            z0: narrow(z0),
+            x0: narrow(x0),
+            x1: narrow(x1),
+            y0: narrow(y0),
+            y1: narrow(y1),
+            b0: narrow(-y0 / r0),
+            b1: narrow(y1 / r2),
+            sin_k: narrow(sin_k),
+            cos_k: narrow(cos_k),
+            solid_angle,
+        };
+        (r, ok)
+    }
+
+    /// `sample` per lane, `u = (ux, uy)`.
+    #[inline(always)]
+    pub fn sample(&self, ux: F, uy: F) -> F3 {
+        let (st, ct) = trig::sin_cos_lanes(widen(ux * self.solid_angle));
+        let (st, ct) = (narrow(st), narrow(ct));
+        let sin_au = self.sin_k * ct + self.cos_k * st;
+        let cos_au = self.cos_k * ct - self.sin_k * st;
+        let fu = (cos_au * self.b0 - self.b1) / sin_au;
+        let cu = copysign(fs(1.0) / (fu * fu + self.b0 * self.b0).sqrt(), fu);
+        let cu = finite(cu).select(clampc(cu, -1.0, 1.0), fs(0.0));
+        let xu = -(cu * self.z0) / fmax(fs(1.0) - cu * cu, fs(0.0)).sqrt();
+        let xu = fnan(xu).select(self.x0, xu);
+        let xu = clampf(xu, self.x0, self.x1);
+        let d2 = xu * xu + self.z0 * self.z0;
+        let d = d2.sqrt();
+        let h0 = self.y0 / (d2 + self.y0 * self.y0).sqrt();
+        let h1 = self.y1 / (d2 + self.y1 * self.y1).sqrt();
+        let hv = h0 + uy * (h1 - h0);
+        let hv2 = hv * hv;
+        let inside = clampf(hv * d / (fs(1.0) - hv2).sqrt(), self.y0, self.y1);
+        let yv = hv2
+            .lt(fs(1.0 - 1e-6))
+            .select(inside, hv.gt(fs(0.0)).select(self.y1, self.y0));
+        let a = scale3(&self.x, xu);
+        let b = scale3(&self.y, yv);
+        let c = scale3(&self.z, self.z0);
+        add3(&add3(&a, &b), &c)
     }
 }

@@ -8,6 +8,7 @@
 //! which is a library call where FMA is absent), so every ISA level gives
 //! the same bits.
 
+use super::lanes8::{D, DM, deq, ds};
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// tan(3π/8): above it `atan(x) = π/2 − atan(1/x)`.
@@ -129,4 +130,74 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
 pub fn sin_cos_f32(x: f32) -> (f32, f32) {
     let (s, c) = sin_cos(x as f64);
     (s as f32, c as f32)
+}
+
+/// `atan_nonneg` per lane: the three reductions computed on every lane
+/// and the lane's own picked, then the one polynomial.
+#[inline(always)]
+fn atan_nonneg_lanes(x: D) -> D {
+    let big = x.gt(ds(TAN_3PI_8));
+    let mid = x.gt(ds(ATAN_SPLIT));
+    let base = big.select(ds(FRAC_PI_2), mid.select(ds(FRAC_PI_4), ds(0.0)));
+    let lo = big.select(ds(PI_2_LO), mid.select(ds(0.5 * PI_2_LO), ds(0.0)));
+    let t = big.select(ds(-1.0) / x, mid.select((x - ds(1.0)) / (x + ds(1.0)), x));
+    let z = t * t;
+    let c = |k: f64| ds(k);
+    let p = (((c(ATAN_P[0]) * z + c(ATAN_P[1])) * z + c(ATAN_P[2])) * z + c(ATAN_P[3])) * z
+        + c(ATAN_P[4]);
+    let q = ((((z + c(ATAN_Q[0])) * z + c(ATAN_Q[1])) * z + c(ATAN_Q[2])) * z + c(ATAN_Q[3])) * z
+        + c(ATAN_Q[4]);
+    base + ((t * (z * p / q) + t) + lo)
+}
+
+/// `atan2` per lane, the same bits as the scalar form on every lane.
+#[inline(always)]
+pub fn atan2_lanes(y: D, x: D) -> D {
+    let (ay, ax) = (y.abs(), x.abs());
+    let ge = ax.ge(ay);
+    // One division: the ratio the lane's own branch takes.
+    let at = atan_nonneg_lanes(ge.select(ay, ax) / ge.select(ax, ay));
+    let zero = ds(0.0);
+    let a = ge.select(deq(ay, zero).select(zero, at), ds(FRAC_PI_2) - at);
+    // x == 0 with its sign bit set: −0 exactly (an integer compare).
+    let neg_zero = DM::from_fn(|l| x.0[l].to_bits() == (-0.0f64).to_bits());
+    let flip = x.lt(zero).or(neg_zero.and(deq(ay, zero)));
+    let a = flip.select(ds(PI) - a, a);
+    a.zip(y, f64::copysign)
+}
+
+/// `sin_cos` per lane, the same bits as the scalar form for |x| below
+/// 2^31 · π/4 (the samplers pass at most 4π); NaN for non-finite `x`.
+#[inline(always)]
+pub fn sin_cos_lanes(x: D) -> (D, D) {
+    let ax = x.abs();
+    // The octant, rounded up to even, in floating point (a vector
+    // rounding at every level): the scalar form's u64 gives the same
+    // integer on the whole range above.
+    let j = (ax * ds(4.0 / PI)).map(f64::trunc);
+    let half = (j * ds(0.5)).map(f64::trunc);
+    let y = j + (j - ds(2.0) * half);
+    // Quadrant bits of y / 2 (even, so y / 2 is an integer).
+    let k = y * ds(0.5);
+    let k2 = (k * ds(0.5)).map(f64::trunc);
+    let q1 = (k - ds(2.0) * k2).gt(ds(0.5));
+    let k4 = (k * ds(0.25)).map(f64::trunc);
+    let q2 = (k2 - ds(2.0) * k4).gt(ds(0.5));
+    let z = ((ax - y * ds(DP1)) - y * ds(DP2)) - y * ds(DP3);
+    let zz = z * z;
+    let poly = |c: &[f64; 6]| {
+        ((((ds(c[0]) * zz + ds(c[1])) * zz + ds(c[2])) * zz + ds(c[3])) * zz + ds(c[4])) * zz
+            + ds(c[5])
+    };
+    let s = z + z * zz * poly(&SIN_C);
+    let c = ds(1.0) - ds(0.5) * zz + zz * zz * poly(&COS_C);
+    // Rotate (s, c) by q·π/2: odd quadrants swap, quadrants 1 and 2 negate
+    // the sine, 2 and 3 the cosine.
+    let (sw, cw) = (q1.select(c, s), q1.select(-s, c));
+    let sin = q2.select(-sw, sw);
+    let cos = q2.select(-cw, cw);
+    let sin = x.lt(ds(0.0)).select(-sin, sin);
+    let finite = x.finite();
+    let nan = ds(f64::NAN);
+    (finite.select(sin, nan), finite.select(cos, nan))
 }

@@ -7,8 +7,11 @@ use crate::gbuffer::{GSample, PixelKind};
 use crate::shadow::{ShadowBatch, ShadowRay};
 use crate::world::World;
 use glam::{Vec2, Vec3};
+use penumbra_isa::Kernel;
 use penumbra_kernels::sampling::brdf_sample::{brdf_pdf_local, sample_brdf, spec_lobe_probability};
-use penumbra_kernels::sampling::light::{LightSampler, sample_light_area_uniform};
+use penumbra_kernels::sampling::draw_lanes::{DrawLanesIn, DrawLanesOut, draw_light_lanes};
+use penumbra_kernels::sampling::lanes8::{N as LANES, lane3, set3, set3d};
+use penumbra_kernels::sampling::light::{LightSampler, RectParts, sample_light_area_uniform};
 use penumbra_kernels::sampling::sequence::{StreamBatch, sample_1d, sample_2d};
 use penumbra_kernels::shading::brdf::{ShadingBasis, alpha_from_roughness, eval_local};
 use penumbra_scene::color::LUMA;
@@ -213,7 +216,16 @@ pub fn draw_pixel_samples(
     let streams = PixelStreams(stream);
     match trace.as_deref_mut() {
         Some(t) => draw(
-            world, g, per_light, u_total, estimator, stream, &streams, out, t,
+            world,
+            g,
+            per_light,
+            u_total,
+            estimator,
+            stream,
+            0..stream.count,
+            &streams,
+            out,
+            t,
         ),
         None => draw(
             world,
@@ -222,6 +234,7 @@ pub fn draw_pixel_samples(
             u_total,
             estimator,
             stream,
+            0..stream.count,
             &streams,
             out,
             &mut NoRecord,
@@ -283,6 +296,12 @@ pub struct SampleScratch {
     lobe: Vec<f32>,
     dir_x: Vec<f32>,
     dir_y: Vec<f32>,
+    /// The lights' rectangle parts (`None`: not sampled as a rectangle).
+    rects: Vec<Option<RectParts>>,
+    /// The lane kernel's samples, eight per entry, pixel-major
+    /// (`j * spp + s`), and what it drew for them.
+    lanes_in: Vec<DrawLanesIn>,
+    lanes_out: Vec<DrawLanesOut>,
 }
 
 /// The `j`-th drawn pixel's streams in a band's batch of `n`.
@@ -383,6 +402,10 @@ pub fn draw_samples(
         });
     }
     let lights = world.lights.len();
+    if band.estimator == Estimator::Mis {
+        draw_in_lanes(world, band, drawn, un, batch, scratch);
+        return;
+    }
     for (j, &(k, m)) in drawn.iter().enumerate() {
         let stream = SampleStream {
             pixel: scratch.pixels[j],
@@ -397,6 +420,7 @@ pub fn draw_samples(
             band.u[k],
             band.estimator,
             stream,
+            0..spp,
             &BandStreams { scratch, j, n },
             Out {
                 un: &mut un[m],
@@ -405,6 +429,154 @@ pub fn draw_samples(
             },
             &mut NoRecord,
         );
+    }
+}
+
+/// The MIS samples of a band in lanes: each (pixel, sample) is a lane of
+/// `draw_light_lanes`, whose handled lanes hold exactly what the scalar
+/// `draw` computes for them, a sample or a drop (the same operations in
+/// the same order); every other sample (a fan or area sampler) is drawn
+/// by `draw` itself, and a pixel that is no surface draws nothing. Results go out in
+/// the scalar order, pixel by pixel and sample by sample, so `U_N` and the
+/// shadow batch are the same bits as the scalar loop's.
+fn draw_in_lanes(
+    world: &World,
+    band: &BandDraw,
+    drawn: &[(usize, usize)],
+    un: &mut [Vec3],
+    batch: &mut ShadowBatch,
+    scratch: &mut SampleScratch,
+) {
+    let (n, spp) = (drawn.len(), band.spp);
+    let lights = world.lights.len();
+    let declared = world.lights.declared();
+    scratch.rects.clear();
+    scratch
+        .rects
+        .extend(world.lights.sampling().iter().map(|l| l.rect_parts()));
+    let total = n * spp as usize;
+    let chunks = total.div_ceil(LANES);
+    scratch.lanes_in.resize(chunks, DrawLanesIn::default());
+    scratch.lanes_out.resize(chunks, DrawLanesOut::default());
+    let inv_spp = 1.0 / spp as f32;
+    for (j, &(k, _)) in drawn.iter().enumerate() {
+        let g = &band.gbuf[k];
+        let per_light = &band.per_light[k * lights..(k + 1) * lights];
+        for s in 0..spp as usize {
+            let e = j * spp as usize + s;
+            let (c, l) = (&mut scratch.lanes_in[e / LANES], e % LANES);
+            c.active.0[l] = 0.0;
+            if g.kind != PixelKind::Surface {
+                continue;
+            }
+            let i = s * n + j;
+            let (li, p_choose) = pick_light(per_light, scratch.light[i]);
+            let Some(r) = scratch.rects[li] else {
+                continue;
+            };
+            c.active.0[l] = 1.0;
+            set3(&mut c.p, l, g.position);
+            set3(&mut c.ns, l, g.ns);
+            set3(&mut c.wo, l, g.wo);
+            set3(&mut c.diffuse, l, g.diffuse);
+            set3(&mut c.specular, l, g.specular);
+            c.roughness.0[l] = g.roughness;
+            set3(&mut c.v0, l, r.v0);
+            set3(&mut c.normal, l, r.normal);
+            c.two_sided.0[l] = if r.two_sided { 1.0 } else { 0.0 };
+            set3(&mut c.corner, l, r.corner);
+            set3d(&mut c.fx, l, r.x);
+            set3d(&mut c.fy, l, r.y);
+            c.lx.0[l] = r.lx;
+            c.ly.0[l] = r.ly;
+            set3(&mut c.radiance, l, declared[li].radiance);
+            for e in 0..4 {
+                set3(&mut c.verts[e], l, r.verts[e]);
+                set3(&mut c.inward[e], l, r.inward[e]);
+                c.edge_len[e].0[l] = r.edge_len[e];
+            }
+            c.p_choose.0[l] = p_choose;
+            c.u_strategy.0[l] = scratch.strategy[i];
+            c.u_lobe.0[l] = scratch.lobe[i];
+            c.ux.0[l] = scratch.dir_x[i];
+            c.uy.0[l] = scratch.dir_y[i];
+            c.inv_spp.0[l] = inv_spp;
+        }
+    }
+    // Lanes past the last sample: inactive.
+    if let Some(c) = scratch.lanes_in.get_mut(total / LANES) {
+        for l in total % LANES..LANES {
+            c.active.0[l] = 0.0;
+        }
+    }
+    penumbra_isa::run(DrawLanesBatch {
+        input: &scratch.lanes_in,
+        out: &mut scratch.lanes_out,
+    });
+    for (j, &(k, m)) in drawn.iter().enumerate() {
+        let g = &band.gbuf[k];
+        if g.kind != PixelKind::Surface {
+            continue;
+        }
+        let stream = SampleStream {
+            pixel: scratch.pixels[j],
+            first: band.first,
+            count: spp,
+            seed: band.seed,
+        };
+        for s in 0..spp {
+            let e = j * spp as usize + s as usize;
+            let (o, l) = (&scratch.lanes_out[e / LANES], e % LANES);
+            if o.handled.0[l] != 0.0 {
+                if o.emit.0[l] == 0.0 {
+                    // Dropped, as the scalar draw drops it.
+                    continue;
+                }
+                let w = lane3(&o.weight, l);
+                un[m] += w;
+                let wi = lane3(&o.wi, l);
+                batch.push(ShadowRay::new(
+                    shadow_origin(g),
+                    wi,
+                    o.dist.0[l],
+                    m as u32,
+                    w,
+                ));
+                continue;
+            }
+            draw(
+                world,
+                g,
+                &band.per_light[k * lights..(k + 1) * lights],
+                band.u[k],
+                band.estimator,
+                stream,
+                s..s + 1,
+                &BandStreams { scratch, j, n },
+                Out {
+                    un: &mut un[m],
+                    batch,
+                    slot: m as u32,
+                },
+                &mut NoRecord,
+            );
+        }
+    }
+}
+
+/// `draw_light_lanes` over a band's lanes, at the run-time ISA level.
+struct DrawLanesBatch<'a> {
+    input: &'a [DrawLanesIn],
+    out: &'a mut [DrawLanesOut],
+}
+
+impl Kernel for DrawLanesBatch<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        for (i, o) in self.input.iter().zip(self.out.iter_mut()) {
+            *o = draw_light_lanes(i);
+        }
     }
 }
 
@@ -424,6 +596,7 @@ fn draw(
     u_total: Vec3,
     estimator: Estimator,
     stream: SampleStream,
+    samples: std::ops::Range<u32>,
     streams: &impl Streams,
     out: Out,
     rec: &mut impl Recorder,
@@ -438,7 +611,7 @@ fn draw(
     let origin = shadow_origin(g);
     if estimator == Estimator::AreaVisibility {
         let w = u_total * inv_spp;
-        for s in 0..spp {
+        for s in samples {
             let index = first.wrapping_add(s);
             let (li, p_choose) = pick_light(per_light, streams.light(s));
             let light = &world.lights.declared()[li];
@@ -484,7 +657,7 @@ fn draw(
     // moving it around per sample was a measurable share of this function.
     let mut cached_light = usize::MAX;
     let mut cached: Option<LightSampler> = None;
-    for s in 0..spp {
+    for s in samples {
         let index = first.wrapping_add(s);
         let (li, p_choose) = pick_light(per_light, streams.light(s));
         let light = &lights[li];

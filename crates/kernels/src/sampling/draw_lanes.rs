@@ -1,0 +1,331 @@
+//! The common case of a pixel's sample in eight lanes, one pixel each:
+//! one-sample MIS on a rectangle light, either strategy (Ureña's spherical
+//! rectangle, or the BRDF's lobes and the light's distance along the
+//! direction), its BRDF value, both strategies' pdfs and the sample's
+//! weight. Each lane's arithmetic is the scalar estimator's
+//! (`penumbra_render::estimate::samples`) operation by operation, so a
+//! lane that reports `emit` holds exactly the direction, distance and weight
+//! the scalar code computes for that pixel, at every ISA level and lane
+//! width; the scalar code stays the definition (and the pixel replay).
+//! A lane that is not `handled` (a fan or area sampler) is for the caller
+//! to draw with the scalar code: the kernel's answer for it means nothing.
+
+use super::lanes8::{
+    D, D3, F, F3, FM, add3, clampc, cross, dot, ds, feq, finite, finite3, fmax, fs, max_element,
+    mul3, narrow, normalize, scale3, select3, sub3, widen,
+};
+use super::light::{EDGE_SLACK, SOLID_ANGLE_AREA_FALLBACK};
+use super::spherical_rect::SphericalRectLanes;
+use super::trig;
+use crate::shading::brdf::{MIN_ALPHA, MIN_COS, alpha_from_roughness};
+use penumbra_scene::color::LUMA;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// One sample of eight pixels, structure of arrays.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DrawLanesIn {
+    /// 1 in lanes that hold a pixel's sample on a rectangle light, 0 in the
+    /// others (ignored). Flags are `f32` lanes, not `bool`s: a mask built
+    /// from bytes kept LLVM from vectorising the selects that use it.
+    pub active: F,
+    /// The G-buffer sample: position, shading normal, view, material.
+    pub p: F3,
+    pub ns: F3,
+    pub wo: F3,
+    pub diffuse: F3,
+    pub specular: F3,
+    pub roughness: F,
+    /// The chosen light (`RectParts`) and its radiance.
+    pub v0: F3,
+    pub normal: F3,
+    /// 1 where the light is two-sided, else 0.
+    pub two_sided: F,
+    pub corner: F3,
+    pub fx: D3,
+    pub fy: D3,
+    pub lx: D,
+    pub ly: D,
+    pub radiance: F3,
+    /// Its vertices, and per edge the inward normal and length.
+    pub verts: [F3; 4],
+    pub inward: [F3; 4],
+    pub edge_len: [F; 4],
+    /// Probability of having chosen the light.
+    pub p_choose: F,
+    /// The sample's random numbers: strategy, lobe and direction.
+    pub u_strategy: F,
+    pub u_lobe: F,
+    pub ux: F,
+    pub uy: F,
+    /// `1 / spp`.
+    pub inv_spp: F,
+}
+
+/// What the lanes drew. `handled` (1 or 0): the lane's sample is decided
+/// here, either drawn or dropped as the scalar code drops it; elsewhere
+/// (0) the caller draws it with the scalar code. `emit` (1 or 0): a
+/// handled sample that was drawn, with its unit direction, distance to
+/// the light and weight (`U_N`'s term, and `S_N`'s when its shadow ray is
+/// unoccluded).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DrawLanesOut {
+    pub handled: F,
+    pub emit: F,
+    pub wi: F3,
+    pub dist: F,
+    pub weight: F3,
+}
+
+/// glam's `Vec3::dot` with a constant.
+#[inline(always)]
+fn dot_c(a: &F3, c: glam::Vec3) -> F {
+    a[0] * fs(c.x) + a[1] * fs(c.y) + a[2] * fs(c.z)
+}
+
+/// `ShadingBasis::to_local` per lane.
+#[inline(always)]
+fn to_local(v: &F3, x: &F3, y: &F3, z: &F3) -> F3 {
+    [dot(v, x), dot(v, y), dot(v, z)]
+}
+
+/// `brdf_sample::spec_lobe_probability` per lane.
+#[inline(always)]
+fn spec_lobe_probability(diffuse: &F3, specular: &F3, n_dot_wo: F) -> F {
+    let wd = fmax(dot_c(diffuse, LUMA), fs(0.0));
+    let has = max_element(specular).gt(fs(0.0));
+    let m = (fs(1.0) - clampc(n_dot_wo, 0.0, 1.0)).map(|x| x.powi(5));
+    let one_minus = sub3(&[fs(1.0); 3], specular);
+    let ws = fmax(
+        dot_c(&add3(specular, &scale3(&one_minus, m)), LUMA),
+        fs(0.0),
+    );
+    let ws = has.select(ws, fs(0.0));
+    let total = wd + ws;
+    total.gt(fs(0.0)).select(ws / total, fs(0.0))
+}
+
+/// `brdf::smith_lambda` per lane.
+#[inline(always)]
+fn smith_lambda(alpha: F, w: &F3) -> F {
+    let cos2 = fmax(w[2] * w[2], fs(MIN_COS * MIN_COS));
+    let sin2 = w[0] * w[0] + w[1] * w[1];
+    let a = alpha * alpha * sin2 / cos2;
+    a / (fs(2.0) * ((fs(1.0) + a).sqrt() + fs(1.0)))
+}
+
+/// `brdf::ggx_d` per lane, for lanes whose `h.z > 0` (the others: 0).
+#[inline(always)]
+fn ggx_d(alpha: F, h: &F3) -> F {
+    let a2 = alpha * alpha;
+    let t = h[0] * h[0] + h[1] * h[1] + a2 * h[2] * h[2];
+    let d = a2 / (fs(PI) * t * t);
+    h[2].le(fs(0.0)).select(fs(0.0), d)
+}
+
+/// `brdf::eval_local` per lane, for lanes whose `wi.z > 0`.
+#[inline(always)]
+fn eval_local(wi: &F3, wo: &F3, diffuse: &F3, specular: &F3, alpha: F) -> F3 {
+    // spec_local: the half vector, D, G2.
+    let h = add3(wi, wo);
+    let l2 = dot(&h, &h);
+    let h = [h[0] / l2.sqrt(), h[1] / l2.sqrt(), h[2] / l2.sqrt()];
+    let d = ggx_d(alpha, &h);
+    let g = fs(1.0) / (fs(1.0) + smith_lambda(alpha, wi) + smith_lambda(alpha, wo));
+    let ci = fmax(wi[2], fs(MIN_COS));
+    let co = fmax(wo[2].abs(), fs(MIN_COS));
+    let s = d * g / (fs(4.0) * ci * co);
+    let cos_oh = dot(wo, &h);
+    let none = l2.gt(fs(1e-20)).invert().or(feq(d, fs(0.0)));
+    let (s, cos_oh) = (none.select(fs(0.0), s), none.select(fs(0.0), cos_oh));
+    // schlick(specular, cos_oh) * s, plus the diffuse lobe.
+    let m = fs(1.0) - clampc(cos_oh, 0.0, 1.0);
+    let m2 = m * m;
+    let weight = m2 * m2 * m;
+    let lambert = scale3(diffuse, fs(1.0 / PI));
+    let fresnel = add3(specular, &scale3(&sub3(&[fs(1.0); 3], specular), weight));
+    let full = add3(&lambert, &scale3(&fresnel, s));
+    let has = max_element(specular).gt(fs(0.0));
+    select3(has, &full, &lambert)
+}
+
+/// `brdf_sample::brdf_pdf_local` per lane.
+#[inline(always)]
+fn brdf_pdf_local(wo: &F3, wi: &F3, alpha: F, p_spec: F) -> F {
+    // vndf_pdf
+    let a = fmax(alpha, fs(MIN_ALPHA));
+    let h = add3(wo, wi);
+    let rcp = fs(1.0) / dot(&h, &h).sqrt();
+    let h = scale3(&h, rcp);
+    let v = fs(1.0) / (fs(1.0) + smith_lambda(a, wo)) * ggx_d(a, &h) / (fs(4.0) * wo[2]);
+    let zero = wo[2]
+        .le(fs(0.0))
+        .or(finite(rcp).and(rcp.gt(fs(0.0))).invert())
+        .or(dot(wo, &h).le(fs(0.0)))
+        .or(h[2].le(fs(0.0)));
+    let v = zero.select(fs(0.0), v);
+    let spec = p_spec.gt(fs(0.0)).select(p_spec * v, fs(0.0));
+    let diff = p_spec.lt(fs(1.0)).select(
+        (fs(1.0) - p_spec) * fmax(wi[2], fs(0.0)) * fs(FRAC_1_PI),
+        fs(0.0),
+    );
+    spec + diff
+}
+
+/// `brdf_sample::sample_brdf` per lane, less its final pdf test (the
+/// caller's MIS pdf test covers it: a zero BRDF pdf makes the lane's
+/// `brdf_pdf_local` zero too, and the scalar code drops both): the world
+/// direction, and the lanes where it is defined.
+#[inline(always)]
+fn sample_brdf(n: &F3, wo: &F3, alpha: F, p_spec: F, u_lobe: F, ux: F, uy: F) -> (F3, FM) {
+    // onb(n)
+    let sign = fs(1.0).zip(n[2], f32::copysign);
+    let a = fs(-1.0) / (sign + n[2]);
+    let b = n[0] * n[1] * a;
+    let t = [fs(1.0) + sign * n[0] * n[0] * a, sign * b, -sign * n[0]];
+    let bb = [b, sign + n[1] * n[1] * a, -n[1]];
+    let wo_l = [dot(wo, &t), dot(wo, &bb), dot(wo, n)];
+    let spec = u_lobe.lt(p_spec);
+    // vndf_sample(wo_l, alpha, u)
+    let al = fmax(alpha, fs(MIN_ALPHA));
+    let v = normalize(&[al * wo_l[0], al * wo_l[1], wo_l[2]]);
+    let phi = fs(2.0 * PI) * ux;
+    let z = (fs(1.0) - uy) * (fs(1.0) + v[2]) - v[2];
+    let sin_theta = clampc(fs(1.0) - z * z, 0.0, 1.0).sqrt();
+    // cosine_hemisphere(u)
+    let ox = fs(2.0) * ux - fs(1.0);
+    let oy = fs(2.0) * uy - fs(1.0);
+    let centre = feq(ox, fs(0.0)).and(feq(oy, fs(0.0)));
+    let wide = ox.abs().gt(oy.abs());
+    let angle_d = wide.select(
+        fs(PI / 4.0) * (oy / ox),
+        fs(PI / 2.0) - fs(PI / 4.0) * (ox / oy),
+    );
+    // One sin_cos per lane: of the lobe's own angle.
+    let (sa, ca) = trig::sin_cos_lanes(widen(spec.select(phi, angle_d)));
+    let (sa, ca) = (narrow(sa), narrow(ca));
+    let h = add3(&[sin_theta * ca, sin_theta * sa, z], &v);
+    let h = normalize(&[al * h[0], al * h[1], fmax(h[2], fs(0.0))]);
+    let k = fs(2.0) * dot(&wo_l, &h);
+    let wi_spec = sub3(&scale3(&h, k), &wo_l);
+    let r = wide.select(ox, oy);
+    let d = [r * ca, r * sa];
+    let d = [centre.select(fs(0.0), d[0]), centre.select(fs(0.0), d[1])];
+    let dz = fmax(fs(1.0) - (d[0] * d[0] + d[1] * d[1]), fs(0.0)).sqrt();
+    let wi_l = select3(spec, &wi_spec, &[d[0], d[1], dz]);
+    let ok = wo_l[2].gt(fs(0.0)).and(wi_l[2].gt(fs(0.0)));
+    let pdf = brdf_pdf_local(&wo_l, &wi_l, alpha, p_spec);
+    let ok = ok.and(pdf.gt(fs(0.0))).and(finite(pdf));
+    // to_world, normalized.
+    let w = add3(
+        &add3(&scale3(&t, wi_l[0]), &scale3(&bb, wi_l[1])),
+        &scale3(n, wi_l[2]),
+    );
+    (normalize(&w), ok)
+}
+
+/// `PreparedLight::intersect_plane` per lane for a four-vertex light: the
+/// distance along `wi`, and the lanes where it hits the emitting side.
+#[inline(always)]
+fn intersect_quad(i: &DrawLanesIn, plane: F, two_sided: FM, wi: &F3) -> (F, FM) {
+    let cos = dot(wi, &i.normal);
+    let facing = feq(cos, fs(0.0))
+        .invert()
+        .and(two_sided.or(cos.gt(fs(0.0)).invert()));
+    let t = plane / cos;
+    let mut ok = facing.and(t.gt(fs(0.0))).and(finite(t));
+    let q = scale3(wi, t);
+    for e in 0..4 {
+        let a = sub3(&i.verts[e], &i.p);
+        let len = i.edge_len[e];
+        let tol = fs(EDGE_SLACK) * len * (t + len);
+        ok = ok.and(dot(&i.inward[e], &sub3(&q, &a)).lt(-tol).invert());
+    }
+    (t, ok)
+}
+
+/// One sample of eight pixels on a rectangle light:
+/// the scalar estimator's arithmetic per lane (see the module notes).
+#[inline(always)]
+pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
+    let (n, wo) = (&i.ns, &i.wo);
+    let alpha = i.roughness.map(alpha_from_roughness);
+    let n_dot_wo = dot(n, wo);
+    let p_spec = spec_lobe_probability(&i.diffuse, &i.specular, n_dot_wo);
+    let two_alpha = fs(2.0) * alpha;
+    let lobe_solid_angle = fs(4.0 * PI) * (two_alpha * two_alpha);
+    // ShadingBasis::from_normal_view.
+    let t = sub3(wo, &scale3(n, n_dot_wo));
+    let l2 = dot(&t, &t);
+    let tx = [t[0] / l2.sqrt(), t[1] / l2.sqrt(), t[2] / l2.sqrt()];
+    let sign = n[2].map(f32::signum);
+    let a = fs(-1.0) / (sign + n[2]);
+    let b = n[0] * n[1] * a;
+    let any = [b, sign + n[1] * n[1] * a, -n[1]];
+    let fx = select3(l2.gt(fs(1e-12)), &tx, &any);
+    let fy = cross(n, &fx);
+    let wo_l = to_local(wo, &fx, &fy, n);
+    // LightSampler::new: the plane test, then the rectangle.
+    let plane = dot(&sub3(&i.v0, &i.p), &i.normal);
+    let two_sided = i.two_sided.gt(fs(0.5));
+    let plane_ok = finite(plane)
+        .and(feq(plane, fs(0.0)).invert())
+        .and(two_sided.or(plane.gt(fs(0.0)).invert()));
+    let corner = sub3(&i.corner, &i.p);
+    let (rect, rect_ok) = SphericalRectLanes::from_frame(&corner, &i.fx, &i.fy, i.lx, i.ly);
+    let omega = rect.solid_angle;
+    let rect_ok = narrow(rect_ok.select(ds(1.0), ds(0.0))).gt(fs(0.5));
+    let sampler_ok = plane_ok
+        .and(rect_ok)
+        .and(omega.gt(fs(0.0)))
+        .and(finite(omega));
+    // Below the fallback solid angle the scalar sampler samples by area.
+    let area = sampler_ok.and(omega.lt(fs(SOLID_ANGLE_AREA_FALLBACK)));
+    // light_strategy_probability, and the light strategy's draw.
+    let spec = clampc(lobe_solid_angle / (lobe_solid_angle + omega), 0.1, 0.9);
+    let p_light = p_spec
+        .le(fs(0.0))
+        .select(fs(1.0), (fs(1.0) - p_spec) + p_spec * spec);
+    let use_light = p_light.ge(fs(1.0)).or(i.u_strategy.lt(p_light));
+    let q = rect.sample(i.ux, i.uy);
+    let dist_l = dot(&q, &q).sqrt();
+    let wi_light = [q[0] / dist_l, q[1] / dist_l, q[2] / dist_l];
+    // The BRDF strategy: a direction from the lobes, then the light's
+    // distance and pdf along it (`LightSampler::pdf`).
+    let (wi_brdf, brdf_ok) = sample_brdf(n, wo, alpha, p_spec, i.u_lobe, i.ux, i.uy);
+    let (dist_b, hit) = intersect_quad(i, plane, two_sided, &wi_brdf);
+    let wi = select3(use_light, &wi_light, &wi_brdf);
+    let dist = use_light.select(dist_l, dist_b);
+    let drawn = use_light.or(brdf_ok.and(hit));
+    let pdf_light = fs(1.0) / omega;
+    let valid = finite(pdf_light)
+        .and(pdf_light.gt(fs(0.0)))
+        .and(finite(dist))
+        .and(dist.gt(fs(0.0)));
+    let cos = dot(n, &wi);
+    let wi_l = to_local(&wi, &fx, &fy, n);
+    let pdf_brdf = p_light
+        .lt(fs(1.0))
+        .select(brdf_pdf_local(&wo_l, &wi_l, alpha, p_spec), fs(0.0));
+    let pdf = p_light * pdf_light + (fs(1.0) - p_light) * pdf_brdf;
+    let f = eval_local(&wi_l, &wo_l, &i.diffuse, &i.specular, alpha);
+    let k = cos * i.inv_spp / (i.p_choose * pdf);
+    let w = scale3(&mul3(&f, &i.radiance), k);
+    let pdf_ok = pdf.gt(fs(0.0)).and(finite(pdf));
+    let w_ok = finite3(&w).and(max_element(&w).gt(fs(0.0)));
+    let handled = i.active.gt(fs(0.5)).and_not(area);
+    let emit = handled
+        .and(sampler_ok)
+        .and(drawn)
+        .and(valid)
+        .and(cos.gt(fs(0.0)))
+        .and(pdf_ok)
+        .and(w_ok);
+    let flag = |m: FM| m.select(fs(1.0), fs(0.0));
+    DrawLanesOut {
+        handled: flag(handled),
+        emit: flag(emit),
+        wi,
+        dist,
+        weight: w,
+    }
+}
