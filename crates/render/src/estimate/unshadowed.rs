@@ -134,19 +134,20 @@ impl TileOut<'_> {
 
 /// Up to `LANES` pixels of a row, as the batched path reads them.
 struct Run {
-    /// Its first pixel in the band, and how many pixels it spans.
+    /// Its first pixel in the band.
     k0: usize,
-    len: usize,
     /// Its surface points: `points[first..first + count]` of the tile.
     first: usize,
     count: usize,
+    /// Bit `l`: lane `l` holds a surface point.
+    surface: u32,
     batch: PixelBatch,
 }
 
 impl Run {
     /// The tile's point index and the lane of each surface point.
     fn lanes(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        (self.first..).zip((0..self.len).filter(|&l| self.batch.point(l).is_some()))
+        (self.first..).zip((0..LANES).filter(|&l| self.surface & (1 << l) != 0))
     }
 }
 
@@ -201,17 +202,19 @@ impl Tile {
                     continue;
                 }
                 let first = self.points.len();
+                let mut surface = 0;
                 for (l, sp) in lane.iter().enumerate() {
                     if let Some(sp) = sp {
                         self.points.push(*sp);
                         self.pixels.push(k0 + l);
+                        surface |= 1 << l;
                     }
                 }
                 self.runs.push(Run {
                     k0,
-                    len,
                     first,
                     count: self.points.len() - first,
+                    surface,
                     batch: PixelBatch::new(&lane),
                 });
             }
