@@ -286,7 +286,8 @@ fn fan_draw(l: &PreparedLight, i: &DrawLanesIn, plane: F) -> LightDraw {
             [fs(0.0); 3]
         }
     });
-    let relw: [[D; 3]; 8] = std::array::from_fn(|k| [widen(rel[k][0]), widen(rel[k][1]), widen(rel[k][2])]);
+    let relw: [[D; 3]; 8] =
+        std::array::from_fn(|k| [widen(rel[k][0]), widen(rel[k][1]), widen(rel[k][2])]);
     let len: [D; 8] = std::array::from_fn(|k| dot(&relw[k], &relw[k]).sqrt());
     let mut tri = [fs(0.0); MAX_TRIS];
     let mut omega = fs(0.0);

@@ -2,8 +2,8 @@
 //! (Arvo 1995, "Stratified Sampling of Spherical Triangles").
 
 use super::lanes8::{
-    D, D3, F, F3, add3, clampd, cross, deq, dfinite, dmax, dot, ds, narrow3, scale3, select3d, sub3, widen,
-    widen3,
+    D, D3, F, F3, add3, clampd, cross, deq, dfinite, dmax, dot, ds, narrow3, scale3, select3d,
+    sub3, widen, widen3,
 };
 use super::trig;
 use glam::{DVec3, Vec2, Vec3};

@@ -14,9 +14,9 @@ use penumbra_kernels::sampling::draw_lanes::{
 };
 use penumbra_kernels::sampling::lanes8::{N as LANES, lane3, set3};
 use penumbra_kernels::sampling::light::{LightSampler, PreparedLight, sample_light_area_uniform};
-use penumbra_scene::Light;
 use penumbra_kernels::sampling::sequence::{StreamBatch, sample_1d, sample_2d};
 use penumbra_kernels::shading::brdf::{ShadingBasis, alpha_from_roughness, eval_local};
+use penumbra_scene::Light;
 use penumbra_scene::color::LUMA;
 
 /// Dimensions of the per-pixel sample stream.
