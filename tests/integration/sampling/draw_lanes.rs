@@ -4,7 +4,8 @@
 //! the scene, behind and in the plane of lights, normals below the view,
 //! mirror to rough, black lobes) and random light choices, drawn both
 //! ways: `U_N` and every queued shadow ray (origin, direction, length,
-//! slot, weight, order) must be identical.
+//! slot, weight, order) must be identical. The scenes cover rectangles,
+//! a triangle, a pentagon and a hexagon (the fans), one- and two-sided.
 
 use crate::support::{load, rng::SplitMix64};
 use glam::Vec3;
@@ -77,8 +78,17 @@ fn shading_point(r: &mut SplitMix64, world: &World) -> GSample {
 }
 
 fn check_scene(name: &str, seed: u64, spp: u32) {
+    check_world(name, seed, spp, false);
+}
+
+/// `two_sided`: every light made two-sided (no scene declares one).
+fn check_world(name: &str, seed: u64, spp: u32, two_sided: bool) {
     let device = Device::new().expect("Embree starts");
-    let world = World::build(&device, load(name)).expect("scene builds");
+    let mut scene = load(name);
+    for l in &mut scene.lights {
+        l.two_sided |= two_sided;
+    }
+    let world = World::build(&device, scene).expect("scene builds");
     let lights = world.lights.len();
     let mut r = SplitMix64::new(seed);
     const PIXELS: usize = 4001;
@@ -177,4 +187,16 @@ fn lanes_draw_the_scalar_samples_bit_for_bit_at_several_samples_per_pixel() {
 #[test]
 fn lanes_draw_the_scalar_samples_bit_for_bit_on_shadow_plane() {
     check_scene("shadow-plane.toml", 3, 1);
+}
+
+#[test]
+fn lanes_draw_the_scalar_samples_bit_for_bit_on_fans() {
+    // A pentagon and a triangle, besides four quads.
+    check_scene("default.toml", 4, 2);
+}
+
+#[test]
+fn lanes_draw_the_scalar_samples_bit_for_bit_on_two_sided_lights() {
+    check_world("room.toml", 5, 1, true);
+    check_world("default.toml", 6, 1, true);
 }

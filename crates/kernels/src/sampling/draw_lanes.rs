@@ -1,32 +1,37 @@
-//! The common case of a pixel's sample in eight lanes, one pixel each:
-//! one-sample MIS on a rectangle light, either strategy (Ureña's spherical
-//! rectangle, or the BRDF's lobes and the light's distance along the
-//! direction), its BRDF value, both strategies' pdfs and the sample's
-//! weight. Each lane's arithmetic is the scalar estimator's
+//! A pixel's sample in eight lanes, one (pixel, sample) each, all lanes
+//! on one light: one-sample MIS, either strategy (the light's own sampler,
+//! Ureña's spherical rectangle or the fan of spherical triangles; or the
+//! BRDF's lobes and the light's distance along the direction), its BRDF
+//! value, both strategies' pdfs and the sample's weight. The light's data
+//! (`PreparedLight`) is the same for every lane, read once per call, not
+//! copied into the lanes. Each lane's arithmetic is the scalar estimator's
 //! (`penumbra_render::estimate::samples`) operation by operation, so a
-//! lane that reports `emit` holds exactly the direction, distance and weight
-//! the scalar code computes for that pixel, at every ISA level and lane
-//! width; the scalar code stays the definition (and the pixel replay).
-//! A lane that is not `handled` (a fan or area sampler) is for the caller
-//! to draw with the scalar code: the kernel's answer for it means nothing.
+//! lane that reports `emit` holds exactly the direction, distance and
+//! weight the scalar code computes for that pixel, at every ISA level and
+//! lane width; the scalar code stays the definition (and the pixel
+//! replay). A lane that is not `handled` (area sampling below
+//! `SOLID_ANGLE_AREA_FALLBACK`) is for the caller to draw with the scalar
+//! code: the kernel's answer for it means nothing.
 
 use super::lanes8::{
-    D, D3, F, F3, FM, add3, clampc, cross, dot, ds, feq, finite, finite3, fmax, fs, max_element,
-    mul3, narrow, normalize, scale3, select3, sub3, widen,
+    D, F, F3, FM, add3, clampc, cross, dot, ds, feq, finite, finite3, fmax, fnan, fs, max_element,
+    mul3, narrow, normalize, scale3, select3, splat3, splat3d, sub3, widen,
 };
-use super::light::{EDGE_SLACK, SOLID_ANGLE_AREA_FALLBACK};
+use super::light::{EDGE_SLACK, MAX_TRIS, PreparedLight, SOLID_ANGLE_AREA_FALLBACK};
 use super::spherical_rect::SphericalRectLanes;
+use super::spherical_tri;
 use super::trig;
 use crate::shading::brdf::{MIN_ALPHA, MIN_COS, alpha_from_roughness};
 use penumbra_scene::color::LUMA;
 use std::f32::consts::{FRAC_1_PI, PI};
 
-/// One sample of eight pixels, structure of arrays.
+/// Eight samples on one light, structure of arrays: the pixels' G-buffer
+/// samples and the samples' random numbers.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct DrawLanesIn {
-    /// 1 in lanes that hold a pixel's sample on a rectangle light, 0 in the
-    /// others (ignored). Flags are `f32` lanes, not `bool`s: a mask built
-    /// from bytes kept LLVM from vectorising the selects that use it.
+    /// 1 in lanes that hold a sample, 0 in the others (ignored). Flags
+    /// are `f32` lanes, not `bool`s: a mask built from bytes kept LLVM
+    /// from vectorising the selects that use it.
     pub active: F,
     /// The G-buffer sample: position, shading normal, view, material.
     pub p: F3,
@@ -35,21 +40,6 @@ pub struct DrawLanesIn {
     pub diffuse: F3,
     pub specular: F3,
     pub roughness: F,
-    /// The chosen light (`RectParts`) and its radiance.
-    pub v0: F3,
-    pub normal: F3,
-    /// 1 where the light is two-sided, else 0.
-    pub two_sided: F,
-    pub corner: F3,
-    pub fx: D3,
-    pub fy: D3,
-    pub lx: D,
-    pub ly: D,
-    pub radiance: F3,
-    /// Its vertices, and per edge the inward normal and length.
-    pub verts: [F3; 4],
-    pub inward: [F3; 4],
-    pub edge_len: [F; 4],
     /// Probability of having chosen the light.
     pub p_choose: F,
     /// The sample's random numbers: strategy, lobe and direction.
@@ -57,8 +47,15 @@ pub struct DrawLanesIn {
     pub u_lobe: F,
     pub ux: F,
     pub uy: F,
-    /// `1 / spp`.
-    pub inv_spp: F,
+}
+
+/// The light the lanes sample: its prepared data, its radiance, and the
+/// pixel's `1 / spp`.
+#[derive(Debug, Clone, Copy)]
+pub struct LanesLight<'a> {
+    pub light: &'a PreparedLight,
+    pub radiance: glam::Vec3,
+    pub inv_spp: f32,
 }
 
 /// What the lanes drew. `handled` (1 or 0): the lane's sample is decided
@@ -223,30 +220,161 @@ fn sample_brdf(n: &F3, wo: &F3, alpha: F, p_spec: F, u_lobe: F, ux: F, uy: F) ->
     (normalize(&w), ok)
 }
 
-/// `PreparedLight::intersect_plane` per lane for a four-vertex light: the
-/// distance along `wi`, and the lanes where it hits the emitting side.
+/// `PreparedLight::intersect_plane` per lane: the distance along `wi`,
+/// and the lanes where it hits the emitting side.
 #[inline(always)]
-fn intersect_quad(i: &DrawLanesIn, plane: F, two_sided: FM, wi: &F3) -> (F, FM) {
-    let cos = dot(wi, &i.normal);
-    let facing = feq(cos, fs(0.0))
-        .invert()
-        .and(two_sided.or(cos.gt(fs(0.0)).invert()));
+fn intersect(l: &PreparedLight, p: &F3, plane: F, wi: &F3) -> (F, FM) {
+    let cos = dot(wi, &splat3(l.normal));
+    let facing = feq(cos, fs(0.0)).invert();
+    let facing = if l.two_sided {
+        facing
+    } else {
+        facing.and(cos.gt(fs(0.0)).invert())
+    };
     let t = plane / cos;
     let mut ok = facing.and(t.gt(fs(0.0))).and(finite(t));
     let q = scale3(wi, t);
-    for e in 0..4 {
-        let a = sub3(&i.verts[e], &i.p);
-        let len = i.edge_len[e];
+    for e in 0..l.n {
+        let a = sub3(&splat3(l.verts[e]), p);
+        let len = fs(l.edge_len[e]);
         let tol = fs(EDGE_SLACK) * len * (t + len);
-        ok = ok.and(dot(&i.inward[e], &sub3(&q, &a)).lt(-tol).invert());
+        ok = ok.and(dot(&splat3(l.inward[e]), &sub3(&q, &a)).lt(-tol).invert());
     }
     (t, ok)
 }
 
-/// One sample of eight pixels on a rectangle light:
-/// the scalar estimator's arithmetic per lane (see the module notes).
+/// What a light's sampler set up for the lanes (`LightSampler::new`):
+/// its solid angle, the lanes where it exists, and the light strategy's
+/// point relative to the shading point (`sample`, before its distance).
+struct LightDraw {
+    omega: F,
+    ok: FM,
+    q: F3,
+}
+
+/// `LightSampler::new` and `sample` per lane for a rectangle light.
 #[inline(always)]
-pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
+fn rect_draw(l: &PreparedLight, i: &DrawLanesIn) -> LightDraw {
+    let Some((corner, frame)) = &l.rect else {
+        unreachable!("rect_draw is only called for rectangle lights")
+    };
+    let (fx, fy, lx, ly) = frame.parts();
+    let corner = sub3(&splat3(*corner), &i.p);
+    let (rect, rect_ok) =
+        SphericalRectLanes::from_frame(&corner, &splat3d(fx), &splat3d(fy), ds(lx), ds(ly));
+    let omega = rect.solid_angle;
+    let ok = narrow(rect_ok.select(ds(1.0), ds(0.0))).gt(fs(0.5));
+    LightDraw {
+        omega,
+        ok,
+        q: rect.sample(i.ux, i.uy),
+    }
+}
+
+/// `LightSampler::new` and `sample` per lane for a fan of spherical
+/// triangles (v0, vk, vk+1), `plane` the lanes' (v0 − p)·n.
+#[inline(always)]
+fn fan_draw(l: &PreparedLight, i: &DrawLanesIn, plane: F) -> LightDraw {
+    let n = l.n;
+    let nt = n - 2;
+    // Solid angle per triangle, Van Oosterom–Strackee on the f64 vertices
+    // relative to p, with the dot products the fan shares.
+    let rel: [F3; 8] = std::array::from_fn(|k| {
+        if k < n {
+            sub3(&splat3(l.verts[k]), &i.p)
+        } else {
+            [fs(0.0); 3]
+        }
+    });
+    let relw: [[D; 3]; 8] =
+        std::array::from_fn(|k| [widen(rel[k][0]), widen(rel[k][1]), widen(rel[k][2])]);
+    let len: [D; 8] = std::array::from_fn(|k| dot(&relw[k], &relw[k]).sqrt());
+    let mut tri = [fs(0.0); MAX_TRIS];
+    let mut omega = fs(0.0);
+    for k in 1..n - 1 {
+        let triple = dot(&relw[0], &splat3d(l.fan_cross[k - 1])).abs();
+        let d0k = dot(&relw[0], &relw[k]);
+        let d0k1 = dot(&relw[0], &relw[k + 1]);
+        let den = len[0] * len[k] * len[k + 1]
+            + d0k * len[k + 1]
+            + d0k1 * len[k]
+            + dot(&relw[k], &relw[k + 1]) * len[0];
+        let t = narrow(ds(2.0) * trig::atan2_lanes(triple, den));
+        tri[k - 1] = finite(t).select(t, fs(0.0));
+        omega = omega + tri[k - 1];
+    }
+    // `select`: the triangle by solid angle, and u.x rescaled within it.
+    let mut later = FM::NONE;
+    let mut is_last = [FM::NONE; MAX_TRIS];
+    for k in (0..nt).rev() {
+        let pos = tri[k].gt(fs(0.0)).or(fnan(tri[k]));
+        is_last[k] = pos.and_not(later);
+        later = later.or(pos);
+    }
+    let target = i.ux * omega;
+    let mut acc = fs(0.0);
+    let mut found = FM::NONE;
+    let mut ux = i.ux;
+    let mut w = fs(0.0);
+    let (mut b, mut c) = (rel[1], rel[2]);
+    for k in 0..nt {
+        let next = acc + tri[k];
+        let hit = found
+            .invert()
+            .and(tri[k].gt(fs(0.0)))
+            .and(target.lt(next).or(is_last[k]));
+        let x = clampc((target - acc) / tri[k], 0.0, 1.0 - f32::EPSILON / 2.0);
+        ux = hit.select(x, ux);
+        w = hit.select(tri[k], w);
+        b = select3(hit, &rel[k + 1], &b);
+        c = select3(hit, &rel[k + 2], &c);
+        found = found.or(hit);
+        acc = next;
+    }
+    let w = found.select(w, tri[0]);
+    let dir = spherical_tri::sample_lanes(
+        &normalize(&rel[0]),
+        &normalize(&b),
+        &normalize(&c),
+        w,
+        ux,
+        i.uy,
+    );
+    // On the light's plane: the renderer needs the distance.
+    let q = scale3(&dir, plane / dot(&dir, &splat3(l.normal)));
+    LightDraw {
+        omega,
+        ok: FM::from_fn(|_| true),
+        q,
+    }
+}
+
+/// One sample of eight pixels on one light: the scalar estimator's
+/// arithmetic per lane (see the module notes).
+#[inline(always)]
+pub fn draw_light_lanes(light: &LanesLight, i: &DrawLanesIn) -> DrawLanesOut {
+    if light.light.rect.is_some() {
+        draw_rect_lanes(light, i)
+    } else {
+        draw_fan_lanes(light, i)
+    }
+}
+
+/// `draw_light_lanes` for a light that has a rectangle sampler.
+#[inline(always)]
+pub fn draw_rect_lanes(light: &LanesLight, i: &DrawLanesIn) -> DrawLanesOut {
+    draw_with(light, i, true)
+}
+
+/// `draw_light_lanes` for a light sampled as a fan of spherical triangles.
+#[inline(always)]
+pub fn draw_fan_lanes(light: &LanesLight, i: &DrawLanesIn) -> DrawLanesOut {
+    draw_with(light, i, false)
+}
+
+#[inline(always)]
+fn draw_with(light: &LanesLight, i: &DrawLanesIn, rect: bool) -> DrawLanesOut {
+    let l = light.light;
     let (n, wo) = (&i.ns, &i.wo);
     let alpha = i.roughness.map(alpha_from_roughness);
     let n_dot_wo = dot(n, wo);
@@ -264,18 +392,22 @@ pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
     let fx = select3(l2.gt(fs(1e-12)), &tx, &any);
     let fy = cross(n, &fx);
     let wo_l = to_local(wo, &fx, &fy, n);
-    // LightSampler::new: the plane test, then the rectangle.
-    let plane = dot(&sub3(&i.v0, &i.p), &i.normal);
-    let two_sided = i.two_sided.gt(fs(0.5));
-    let plane_ok = finite(plane)
-        .and(feq(plane, fs(0.0)).invert())
-        .and(two_sided.or(plane.gt(fs(0.0)).invert()));
-    let corner = sub3(&i.corner, &i.p);
-    let (rect, rect_ok) = SphericalRectLanes::from_frame(&corner, &i.fx, &i.fy, i.lx, i.ly);
-    let omega = rect.solid_angle;
-    let rect_ok = narrow(rect_ok.select(ds(1.0), ds(0.0))).gt(fs(0.5));
+    // LightSampler::new: the plane test, then the light's own setup.
+    let plane = dot(&sub3(&splat3(l.verts[0]), &i.p), &splat3(l.normal));
+    let plane_ok = finite(plane).and(feq(plane, fs(0.0)).invert());
+    let plane_ok = if l.two_sided {
+        plane_ok
+    } else {
+        plane_ok.and(plane.gt(fs(0.0)).invert())
+    };
+    let ld = if rect {
+        rect_draw(l, i)
+    } else {
+        fan_draw(l, i, plane)
+    };
+    let omega = ld.omega;
     let sampler_ok = plane_ok
-        .and(rect_ok)
+        .and(ld.ok)
         .and(omega.gt(fs(0.0)))
         .and(finite(omega));
     // Below the fallback solid angle the scalar sampler samples by area.
@@ -286,13 +418,13 @@ pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
         .le(fs(0.0))
         .select(fs(1.0), (fs(1.0) - p_spec) + p_spec * spec);
     let use_light = p_light.ge(fs(1.0)).or(i.u_strategy.lt(p_light));
-    let q = rect.sample(i.ux, i.uy);
+    let q = ld.q;
     let dist_l = dot(&q, &q).sqrt();
     let wi_light = [q[0] / dist_l, q[1] / dist_l, q[2] / dist_l];
     // The BRDF strategy: a direction from the lobes, then the light's
     // distance and pdf along it (`LightSampler::pdf`).
     let (wi_brdf, brdf_ok) = sample_brdf(n, wo, alpha, p_spec, i.u_lobe, i.ux, i.uy);
-    let (dist_b, hit) = intersect_quad(i, plane, two_sided, &wi_brdf);
+    let (dist_b, hit) = intersect(l, &i.p, plane, &wi_brdf);
     let wi = select3(use_light, &wi_light, &wi_brdf);
     let dist = use_light.select(dist_l, dist_b);
     let drawn = use_light.or(brdf_ok.and(hit));
@@ -308,8 +440,8 @@ pub fn draw_light_lanes(i: &DrawLanesIn) -> DrawLanesOut {
         .select(brdf_pdf_local(&wo_l, &wi_l, alpha, p_spec), fs(0.0));
     let pdf = p_light * pdf_light + (fs(1.0) - p_light) * pdf_brdf;
     let f = eval_local(&wi_l, &wo_l, &i.diffuse, &i.specular, alpha);
-    let k = cos * i.inv_spp / (i.p_choose * pdf);
-    let w = scale3(&mul3(&f, &i.radiance), k);
+    let k = cos * fs(light.inv_spp) / (i.p_choose * pdf);
+    let w = scale3(&mul3(&f, &splat3(light.radiance)), k);
     let pdf_ok = pdf.gt(fs(0.0)).and(finite(pdf));
     let w_ok = finite3(&w).and(max_element(&w).gt(fs(0.0)));
     let handled = i.active.gt(fs(0.5)).and_not(area);

@@ -111,6 +111,13 @@ pub fn clampf(x: F, lo: F, hi: F) -> F {
     x.gt(hi).select(hi, x)
 }
 
+/// `f64::clamp`'s sequence with constant bounds.
+#[inline(always)]
+pub fn clampd(x: D, lo: f64, hi: f64) -> D {
+    let x = x.lt(ds(lo)).select(ds(lo), x);
+    x.gt(ds(hi)).select(ds(hi), x)
+}
+
 /// `clampf` with constant bounds.
 #[inline(always)]
 pub fn clampc(x: F, lo: f32, hi: f32) -> F {
@@ -221,6 +228,28 @@ pub fn select3(m: FM, a: &F3, b: &F3) -> F3 {
     ]
 }
 
+/// `select3` for `f64` lanes.
+#[inline(always)]
+pub fn select3d(m: DM, a: &D3, b: &D3) -> D3 {
+    [
+        m.select(a[0], b[0]),
+        m.select(a[1], b[1]),
+        m.select(a[2], b[2]),
+    ]
+}
+
+/// Every lane `v`.
+#[inline(always)]
+pub fn splat3(v: glam::Vec3) -> F3 {
+    [fs(v.x), fs(v.y), fs(v.z)]
+}
+
+/// Every lane `v`.
+#[inline(always)]
+pub fn splat3d(v: glam::DVec3) -> D3 {
+    [ds(v.x), ds(v.y), ds(v.z)]
+}
+
 /// glam's `Vec3::max_element`.
 #[inline(always)]
 pub fn max_element(a: &F3) -> F {
@@ -236,6 +265,13 @@ pub fn max_element(a: &F3) -> F {
 #[allow(clippy::eq_op)] // x - x is the test itself, not a slip
 pub fn finite(x: F) -> FM {
     feq(x - x, fs(0.0))
+}
+
+/// `finite` for `f64` lanes.
+#[inline(always)]
+#[allow(clippy::eq_op)] // x - x is the test itself, not a slip
+pub fn dfinite(x: D) -> DM {
+    deq(x - x, ds(0.0))
 }
 
 /// Lanes whose three components are all finite.

@@ -28,7 +28,7 @@ pub const SOLID_ANGLE_AREA_FALLBACK: f32 = 1e-3;
 
 /// Lights have at most 8 vertices (docs/scene-format.md), so a fan has at most 6 triangles.
 const MAX_VERTS: usize = 8;
-const MAX_TRIS: usize = MAX_VERTS - 2;
+pub(crate) const MAX_TRIS: usize = MAX_VERTS - 2;
 
 /// A direction toward a light from a shading point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,15 +46,15 @@ pub struct LightSample {
 /// between all pixels.
 #[derive(Debug, Clone, Copy)]
 pub struct PreparedLight {
-    verts: [Vec3; MAX_VERTS],
-    n: usize,
-    normal: Vec3,
-    two_sided: bool,
+    pub(crate) verts: [Vec3; MAX_VERTS],
+    pub(crate) n: usize,
+    pub(crate) normal: Vec3,
+    pub(crate) two_sided: bool,
     area: f32,
     /// Per edge i (vertex i to i+1): normal × edge, pointing into the polygon,
     /// and the edge length (for the slack of the inside test).
-    inward: [Vec3; MAX_VERTS],
-    edge_len: [f32; MAX_VERTS],
+    pub(crate) inward: [Vec3; MAX_VERTS],
+    pub(crate) edge_len: [f32; MAX_VERTS],
     /// Areas of the fan triangles (v0, vi, vi+1) and their sum: the
     /// selection table of area sampling.
     fan_area: [f32; MAX_TRIS],
@@ -62,9 +62,9 @@ pub struct PreparedLight {
     /// (v_i − v0) × (v_i+1 − v0) per fan triangle, f64: the triple product
     /// of a triangle seen from any p is (v0 − p) · this, so the per-point
     /// setup takes one dot product where it took two edges and a cross.
-    fan_cross: [DVec3; MAX_TRIS],
+    pub(crate) fan_cross: [DVec3; MAX_TRIS],
     /// Corner (world space) and frame when the light is a true rectangle.
-    rect: Option<(Vec3, RectFrame)>,
+    pub(crate) rect: Option<(Vec3, RectFrame)>,
 }
 
 /// The light as a rectangle `(corner, ex, ey)`, if it is one: a quad whose
@@ -89,27 +89,6 @@ fn as_rect(light: &Light, verts: &[Vec3]) -> Option<(Vec3, Vec3, Vec3)> {
         }
     }
     None
-}
-
-/// What the lane form of a rectangle light's sampler (`draw_lanes`)
-/// needs of a `PreparedLight`: the same numbers `LightSampler` reads.
-#[derive(Debug, Clone, Copy)]
-pub struct RectParts {
-    /// The first vertex and the normal: the plane test of `LightSampler::new`.
-    pub v0: Vec3,
-    pub normal: Vec3,
-    pub two_sided: bool,
-    /// The rectangle's corner and its frame (`RectFrame`).
-    pub corner: Vec3,
-    pub x: DVec3,
-    pub y: DVec3,
-    pub lx: f64,
-    pub ly: f64,
-    /// The four vertices, and per edge its inward normal and length: the
-    /// inside test of `LightSampler::pdf`.
-    pub verts: [Vec3; 4],
-    pub inward: [Vec3; 4],
-    pub edge_len: [f32; 4],
 }
 
 impl PreparedLight {
@@ -153,37 +132,17 @@ impl PreparedLight {
         }
     }
 
-    /// The light's rectangle sampler parts, when `LightSampler` samples it
-    /// as a rectangle (a true rectangle given by its four vertices).
-    pub fn rect_parts(&self) -> Option<RectParts> {
-        if self.n != 4 {
-            return None;
-        }
-        let (corner, frame) = self.rect.as_ref()?;
-        let (x, y, lx, ly) = frame.parts();
-        Some(RectParts {
-            v0: self.verts[0],
-            normal: self.normal,
-            two_sided: self.two_sided,
-            corner: *corner,
-            x,
-            y,
-            lx,
-            ly,
-            verts: [self.verts[0], self.verts[1], self.verts[2], self.verts[3]],
-            inward: [
-                self.inward[0],
-                self.inward[1],
-                self.inward[2],
-                self.inward[3],
-            ],
-            edge_len: [
-                self.edge_len[0],
-                self.edge_len[1],
-                self.edge_len[2],
-                self.edge_len[3],
-            ],
-        })
+    /// Whether the lane draw (`draw_lanes`) takes this light's samples:
+    /// any polygon `LightSampler` can set up (a rectangle or a fan).
+    #[inline]
+    pub fn in_lanes(&self) -> bool {
+        self.n >= 3
+    }
+
+    /// Whether `LightSampler` samples the light as a rectangle.
+    #[inline]
+    pub fn is_rect(&self) -> bool {
+        self.rect.is_some()
     }
 
     /// Distance from `p` along unit `wi` to the light, if the ray hits its

@@ -1,6 +1,10 @@
 //! Spherical triangles: a robust solid angle and uniform solid-angle sampling
 //! (Arvo 1995, "Stratified Sampling of Spherical Triangles").
 
+use super::lanes8::{
+    D, D3, F, F3, add3, clampd, cross, deq, dfinite, dmax, dot, ds, narrow3, scale3, select3d,
+    sub3, widen, widen3,
+};
 use super::trig;
 use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
@@ -88,6 +92,64 @@ pub fn sample(a: Vec3, b: Vec3, c: Vec3, omega: f32, u: Vec2) -> Vec3 {
     let z = (1.0 - uy * (1.0 - c_new.dot(b))).clamp(-1.0, 1.0);
     let dir = z * b + (1.0 - z * z).max(0.0).sqrt() * orthogonal_unit(c_new, b);
     dir.normalize().as_vec3()
+}
+
+/// `orthogonal_unit` per lane.
+#[inline(always)]
+fn orthogonal_unit_lanes(v: &D3, axis: &D3) -> D3 {
+    let w = sub3(v, &scale3(axis, dot(v, axis)));
+    let rcp = ds(1.0) / dot(&w, &w).sqrt();
+    let ok = dfinite(rcp).and(rcp.gt(ds(0.0)));
+    // glam's `any_orthonormal_vector`.
+    let sign = axis[2].map(f64::signum);
+    let a = ds(-1.0) / (sign + axis[2]);
+    let b = axis[0] * axis[1] * a;
+    let any = [b, sign + axis[1] * axis[1] * a, -axis[1]];
+    select3d(ok, &scale3(&w, rcp), &any)
+}
+
+/// `sample` for eight triangles at once, one per lane: unit corners `a`,
+/// `b`, `c`, solid angle `omega`, `u = (ux, uy)`. Each lane's operations
+/// are `sample`'s in the same order (branches as selects), so a lane gives
+/// the bits `sample` gives for it.
+#[inline(always)]
+pub fn sample_lanes(a: &F3, b: &F3, c: &F3, omega: F, ux: F, uy: F) -> F3 {
+    let (a, b, c) = (widen3(a), widen3(b), widen3(c));
+    let (ux, uy) = (widen(ux), widen(uy));
+    let (x, y) = (cross(&a, &b), cross(&a, &c));
+    let inv = ds(1.0) / (dot(&x, &x) * dot(&y, &y)).sqrt();
+    let ok = dfinite(inv);
+    let sin_alpha = ok.select(
+        (dot(&a, &cross(&b, &c)).abs() * inv).zip(ds(1.0), f64::min),
+        ds(0.0),
+    );
+    let cos_alpha = ok.select(clampd(dot(&x, &y) * inv, -1.0, 1.0), ds(1.0));
+    let cos_c = dot(&a, &b);
+    let area: D = ux * widen(omega);
+    let (sin_area, cos_area) = trig::sin_cos_lanes(area);
+    let s = sin_area * cos_alpha - cos_area * sin_alpha;
+    let t = cos_area * cos_alpha + sin_area * sin_alpha;
+    let uu = t - cos_alpha;
+    let vv = s + sin_alpha * cos_c;
+    let den = (vv * s + uu * t) * sin_alpha;
+    let q = clampd(((vv * t - uu * s) * cos_alpha - vv) / den, -1.0, 1.0);
+    let q = deq(den, ds(0.0)).select(ds(1.0), q);
+    let c_new = add3(
+        &scale3(&a, q),
+        &scale3(
+            &orthogonal_unit_lanes(&c, &a),
+            dmax(ds(1.0) - q * q, ds(0.0)).sqrt(),
+        ),
+    );
+    let z = clampd(ds(1.0) - uy * (ds(1.0) - dot(&c_new, &b)), -1.0, 1.0);
+    let dir = add3(
+        &scale3(&b, z),
+        &scale3(
+            &orthogonal_unit_lanes(&c_new, &b),
+            dmax(ds(1.0) - z * z, ds(0.0)).sqrt(),
+        ),
+    );
+    narrow3(&scale3(&dir, ds(1.0) / dot(&dir, &dir).sqrt()))
 }
 
 /// Solid angle of the full sphere, the upper bound for any light.

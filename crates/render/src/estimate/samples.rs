@@ -9,11 +9,14 @@ use crate::world::World;
 use glam::{Vec2, Vec3};
 use penumbra_isa::Kernel;
 use penumbra_kernels::sampling::brdf_sample::{brdf_pdf_local, sample_brdf, spec_lobe_probability};
-use penumbra_kernels::sampling::draw_lanes::{DrawLanesIn, DrawLanesOut, draw_light_lanes};
-use penumbra_kernels::sampling::lanes8::{N as LANES, lane3, set3, set3d};
-use penumbra_kernels::sampling::light::{LightSampler, RectParts, sample_light_area_uniform};
+use penumbra_kernels::sampling::draw_lanes::{
+    DrawLanesIn, DrawLanesOut, LanesLight, draw_fan_lanes, draw_rect_lanes,
+};
+use penumbra_kernels::sampling::lanes8::{N as LANES, lane3, set3};
+use penumbra_kernels::sampling::light::{LightSampler, PreparedLight, sample_light_area_uniform};
 use penumbra_kernels::sampling::sequence::{StreamBatch, sample_1d, sample_2d};
 use penumbra_kernels::shading::brdf::{ShadingBasis, alpha_from_roughness, eval_local};
+use penumbra_scene::Light;
 use penumbra_scene::color::LUMA;
 
 /// Dimensions of the per-pixel sample stream.
@@ -296,10 +299,17 @@ pub struct SampleScratch {
     lobe: Vec<f32>,
     dir_x: Vec<f32>,
     dir_y: Vec<f32>,
-    /// The lights' rectangle parts (`None`: not sampled as a rectangle).
-    rects: Vec<Option<RectParts>>,
-    /// The lane kernel's samples, eight per entry, pixel-major
-    /// (`j * spp + s`), and what it drew for them.
+    /// Per sample, pixel-major (`j * spp + s`): the light chosen and its
+    /// probability (`NO_LIGHT`: the pixel draws nothing), and the lane that
+    /// draws it (`NOT_IN_LANES`: the scalar code does).
+    chosen: Vec<(u32, f32)>,
+    lane_of: Vec<u32>,
+    /// Per light: its samples, then the next free lane of its chunks.
+    per_light: Vec<u32>,
+    /// The lights' runs of chunks: (light, first chunk, end chunk).
+    groups: Vec<(u32, u32, u32)>,
+    /// The lane kernel's samples, eight per entry, grouped by light, and
+    /// what it drew for them.
     lanes_in: Vec<DrawLanesIn>,
     lanes_out: Vec<DrawLanesOut>,
 }
@@ -432,13 +442,21 @@ pub fn draw_samples(
     }
 }
 
-/// The MIS samples of a band in lanes: each (pixel, sample) is a lane of
-/// `draw_light_lanes`, whose handled lanes hold exactly what the scalar
-/// `draw` computes for them, a sample or a drop (the same operations in
-/// the same order); every other sample (a fan or area sampler) is drawn
-/// by `draw` itself, and a pixel that is no surface draws nothing. Results go out in
-/// the scalar order, pixel by pixel and sample by sample, so `U_N` and the
-/// shadow batch are the same bits as the scalar loop's.
+/// `SampleScratch::chosen` of a pixel that draws nothing.
+const NO_LIGHT: u32 = u32::MAX;
+/// `SampleScratch::lane_of` of a sample the scalar code draws.
+const NOT_IN_LANES: u32 = u32::MAX;
+
+/// The MIS samples of a band in lanes: the samples are grouped by the light
+/// they chose, eight to a chunk of one light, so the light's data is read
+/// once per chunk instead of copied into every lane, and each is a lane of
+/// `draw_rect_lanes` or `draw_fan_lanes`, whose handled lanes hold exactly
+/// what the scalar `draw` computes for them, a sample or a drop (the same
+/// operations in the same order); every other sample (area sampling of a
+/// tiny solid angle, a light of fewer than three vertices) is drawn by
+/// `draw` itself, and a pixel that is no surface draws nothing. Results go
+/// out in the scalar order, pixel by pixel and sample by sample, so `U_N`
+/// and the shadow batch are the same bits as the scalar loop's.
 fn draw_in_lanes(
     world: &World,
     band: &BandDraw,
@@ -447,33 +465,68 @@ fn draw_in_lanes(
     batch: &mut ShadowBatch,
     scratch: &mut SampleScratch,
 ) {
-    let (n, spp) = (drawn.len(), band.spp);
+    let (n, spp) = (drawn.len(), band.spp as usize);
     let lights = world.lights.len();
-    let declared = world.lights.declared();
-    scratch.rects.clear();
+    let samplers = world.lights.sampling();
+    let total = n * spp;
+    scratch.chosen.resize(total, (NO_LIGHT, 0.0));
+    scratch.lane_of.clear();
+    scratch.lane_of.resize(total, NOT_IN_LANES);
+    scratch.per_light.clear();
+    scratch.per_light.resize(lights, 0);
+    // The light of every sample, and how many each light's lanes take.
+    for (j, &(k, _)) in drawn.iter().enumerate() {
+        let chosen = &mut scratch.chosen[j * spp..(j + 1) * spp];
+        if band.gbuf[k].kind != PixelKind::Surface {
+            chosen.fill((NO_LIGHT, 0.0));
+            continue;
+        }
+        let per_light = &band.per_light[k * lights..(k + 1) * lights];
+        for (s, c) in chosen.iter_mut().enumerate() {
+            let (li, p_choose) = pick_light(per_light, scratch.light[s * n + j]);
+            *c = (li as u32, p_choose);
+            if samplers[li].in_lanes() {
+                scratch.per_light[li] += 1;
+            }
+        }
+    }
+    // Each light's run of chunks; its last chunk's spare lanes inactive.
+    scratch.groups.clear();
+    let mut chunks = 0u32;
+    for (li, count) in scratch.per_light.iter_mut().enumerate() {
+        if *count == 0 {
+            continue;
+        }
+        let end = chunks + count.div_ceil(LANES as u32);
+        scratch.groups.push((li as u32, chunks, end));
+        *count = chunks * LANES as u32;
+        chunks = end;
+    }
     scratch
-        .rects
-        .extend(world.lights.sampling().iter().map(|l| l.rect_parts()));
-    let total = n * spp as usize;
-    let chunks = total.div_ceil(LANES);
-    scratch.lanes_in.resize(chunks, DrawLanesIn::default());
-    scratch.lanes_out.resize(chunks, DrawLanesOut::default());
-    let inv_spp = 1.0 / spp as f32;
+        .lanes_in
+        .resize(chunks as usize, DrawLanesIn::default());
+    scratch
+        .lanes_out
+        .resize(chunks as usize, DrawLanesOut::default());
+    for &(_, _, end) in &scratch.groups {
+        scratch.lanes_in[end as usize - 1].active.0 = [0.0; LANES];
+    }
     for (j, &(k, _)) in drawn.iter().enumerate() {
         let g = &band.gbuf[k];
-        let per_light = &band.per_light[k * lights..(k + 1) * lights];
-        for s in 0..spp as usize {
-            let e = j * spp as usize + s;
-            let (c, l) = (&mut scratch.lanes_in[e / LANES], e % LANES);
-            c.active.0[l] = 0.0;
-            if g.kind != PixelKind::Surface {
+        for s in 0..spp {
+            let e = j * spp + s;
+            let (li, p_choose) = scratch.chosen[e];
+            if li == NO_LIGHT || !samplers[li as usize].in_lanes() {
                 continue;
             }
+            let lane = scratch.per_light[li as usize];
+            scratch.per_light[li as usize] += 1;
+            scratch.lane_of[e] = lane;
+            let (c, l) = (
+                &mut scratch.lanes_in[lane as usize / LANES],
+                lane as usize % LANES,
+            );
             let i = s * n + j;
-            let (li, p_choose) = pick_light(per_light, scratch.light[i]);
-            let Some(r) = scratch.rects[li] else {
-                continue;
-            };
             c.active.0[l] = 1.0;
             set3(&mut c.p, l, g.position);
             set3(&mut c.ns, l, g.ns);
@@ -481,35 +534,18 @@ fn draw_in_lanes(
             set3(&mut c.diffuse, l, g.diffuse);
             set3(&mut c.specular, l, g.specular);
             c.roughness.0[l] = g.roughness;
-            set3(&mut c.v0, l, r.v0);
-            set3(&mut c.normal, l, r.normal);
-            c.two_sided.0[l] = if r.two_sided { 1.0 } else { 0.0 };
-            set3(&mut c.corner, l, r.corner);
-            set3d(&mut c.fx, l, r.x);
-            set3d(&mut c.fy, l, r.y);
-            c.lx.0[l] = r.lx;
-            c.ly.0[l] = r.ly;
-            set3(&mut c.radiance, l, declared[li].radiance);
-            for e in 0..4 {
-                set3(&mut c.verts[e], l, r.verts[e]);
-                set3(&mut c.inward[e], l, r.inward[e]);
-                c.edge_len[e].0[l] = r.edge_len[e];
-            }
             c.p_choose.0[l] = p_choose;
             c.u_strategy.0[l] = scratch.strategy[i];
             c.u_lobe.0[l] = scratch.lobe[i];
             c.ux.0[l] = scratch.dir_x[i];
             c.uy.0[l] = scratch.dir_y[i];
-            c.inv_spp.0[l] = inv_spp;
-        }
-    }
-    // Lanes past the last sample: inactive.
-    if let Some(c) = scratch.lanes_in.get_mut(total / LANES) {
-        for l in total % LANES..LANES {
-            c.active.0[l] = 0.0;
         }
     }
     penumbra_isa::run(DrawLanesBatch {
+        lights: samplers,
+        declared: world.lights.declared(),
+        inv_spp: 1.0 / band.spp as f32,
+        groups: &scratch.groups,
         input: &scratch.lanes_in,
         out: &mut scratch.lanes_out,
     });
@@ -521,29 +557,35 @@ fn draw_in_lanes(
         let stream = SampleStream {
             pixel: scratch.pixels[j],
             first: band.first,
-            count: spp,
+            count: band.spp,
             seed: band.seed,
         };
         for s in 0..spp {
-            let e = j * spp as usize + s as usize;
-            let (o, l) = (&scratch.lanes_out[e / LANES], e % LANES);
-            if o.handled.0[l] != 0.0 {
-                if o.emit.0[l] == 0.0 {
-                    // Dropped, as the scalar draw drops it.
+            let lane = scratch.lane_of[j * spp + s];
+            if lane != NOT_IN_LANES {
+                let (o, l) = (
+                    &scratch.lanes_out[lane as usize / LANES],
+                    lane as usize % LANES,
+                );
+                if o.handled.0[l] != 0.0 {
+                    if o.emit.0[l] == 0.0 {
+                        // Dropped, as the scalar draw drops it.
+                        continue;
+                    }
+                    let w = lane3(&o.weight, l);
+                    un[m] += w;
+                    let wi = lane3(&o.wi, l);
+                    batch.push(ShadowRay::new(
+                        shadow_origin(g),
+                        wi,
+                        o.dist.0[l],
+                        m as u32,
+                        w,
+                    ));
                     continue;
                 }
-                let w = lane3(&o.weight, l);
-                un[m] += w;
-                let wi = lane3(&o.wi, l);
-                batch.push(ShadowRay::new(
-                    shadow_origin(g),
-                    wi,
-                    o.dist.0[l],
-                    m as u32,
-                    w,
-                ));
-                continue;
             }
+            let s = s as u32;
             draw(
                 world,
                 g,
@@ -564,8 +606,13 @@ fn draw_in_lanes(
     }
 }
 
-/// `draw_light_lanes` over a band's lanes, at the run-time ISA level.
+/// The lane draw over a band's chunks, light by light, at the run-time
+/// ISA level.
 struct DrawLanesBatch<'a> {
+    lights: &'a [PreparedLight],
+    declared: &'a [Light],
+    inv_spp: f32,
+    groups: &'a [(u32, u32, u32)],
     input: &'a [DrawLanesIn],
     out: &'a mut [DrawLanesOut],
 }
@@ -574,8 +621,24 @@ impl Kernel for DrawLanesBatch<'_> {
     type Out = ();
     #[inline(always)]
     fn run(self) {
-        for (i, o) in self.input.iter().zip(self.out.iter_mut()) {
-            *o = draw_light_lanes(i);
+        for &(li, a, b) in self.groups {
+            let light = LanesLight {
+                light: &self.lights[li as usize],
+                radiance: self.declared[li as usize].radiance,
+                inv_spp: self.inv_spp,
+            };
+            let (a, b) = (a as usize, b as usize);
+            let chunks = self.input[a..b].iter().zip(self.out[a..b].iter_mut());
+            // One loop per sampler, so the sampler's test leaves the loop.
+            if light.light.is_rect() {
+                for (i, o) in chunks {
+                    *o = draw_rect_lanes(&light, i);
+                }
+            } else {
+                for (i, o) in chunks {
+                    *o = draw_fan_lanes(&light, i);
+                }
+            }
         }
     }
 }
