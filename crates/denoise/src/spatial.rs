@@ -509,6 +509,7 @@ impl Kernel for LevelRow<'_, '_> {
         let w = src.width;
         let tiles = ctx.inp.tiles;
         let g = ctx.inp.guides;
+        let to_planes = matches!(dst, Dst::Planes(_));
         for tx in 0..tiles.columns() {
             if tiles.skipped(tx, y / TILE) {
                 continue;
@@ -531,9 +532,10 @@ impl Kernel for LevelRow<'_, '_> {
             // move 56 bytes per pixel for nothing. At the last level a
             // group with no pixel in any level keeps the values already in
             // the caller's buffers.
-            let settled = match dst {
-                Dst::Planes(_) => level >= 2 && !lv.iter().any(|&l| l >= level),
-                Dst::Caller(..) => lv.iter().all(|&l| l == 0),
+            let settled = if to_planes {
+                level >= 2 && !lv.iter().any(|&l| l >= level)
+            } else {
+                lv.iter().all(|&l| l == 0)
             };
             if settled {
                 continue;
@@ -559,7 +561,7 @@ impl Kernel for LevelRow<'_, '_> {
                     val[c] = take.select(f.u[c], val[c]);
                     val[3 + c] = take.select(f.s[c], val[3 + c]);
                 }
-                if let Dst::Planes(_) = dst {
+                if to_planes {
                     ratio = take.select(ratio_lanes(&f), ratio);
                 }
             }
