@@ -390,6 +390,13 @@ impl Denoiser {
                 &mut self.levels,
                 settings,
             );
+            let levels = stats.levels.min(spatial::MAX_LEVELS);
+            if levels >= 2 {
+                // The largest step a level that reads the ping-pong planes
+                // takes, in tiles.
+                self.tiles
+                    .mark_halo((1usize << (levels - 1)).div_ceil(TILE));
+            }
             let inputs = spatial::Inputs {
                 guides: &self.guides,
                 sigma: &self.sigma,
@@ -401,7 +408,7 @@ impl Denoiser {
                 &self.acc,
                 &mut self.ping,
                 &mut self.pong,
-                stats.levels.min(spatial::MAX_LEVELS),
+                levels,
                 un,
                 sn,
                 settings,

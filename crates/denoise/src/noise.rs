@@ -21,14 +21,15 @@ const TRUST_MOMENTS: f32 = 4.0;
 
 /// The planes the temporal pass writes for the estimate, per surface pixel
 /// (0 in every plane where there is none, so a 3x3 sum of each plane is the
-/// sum over the surface pixels): this frame's raw ratio, its square, the
-/// variance of the accumulated moments, 1, and the history length.
+/// sum over the surface pixels): this frame's raw ratio, the variance of the
+/// accumulated moments, and the history length. The square of the raw ratio
+/// and the surface count are derived here (the length is at least 1 on a
+/// surface, 0 elsewhere) rather than stored: the pass is bound by the bytes
+/// it moves, and two more planes cost 8 of them per pixel written and read.
 pub(crate) const RAW: usize = 0;
-pub(crate) const RAW2: usize = 1;
-pub(crate) const VAR_T: usize = 2;
-pub(crate) const SURFACE: usize = 3;
-pub(crate) const LEN: usize = 4;
-pub(crate) const COUNT: usize = 5;
+pub(crate) const VAR_T: usize = 1;
+pub(crate) const LEN: usize = 2;
+pub(crate) const COUNT: usize = 3;
 
 /// Per pixel the noise deviation of the accumulated ratio (`sigma_out`) and
 /// the levels it needs; returns the most levels any pixel needs.
@@ -95,20 +96,22 @@ impl Kernel for Row<'_> {
             }
             let c = m.index(x0, y);
             let (mut r1, mut r2, mut vt, mut cnt) = (zero, zero, zero, zero);
+            let one = V::splat(1.0);
             for row in [c - block, c, c + block] {
                 for at in [row - 1, row, row + 1] {
-                    r1 = r1 + V::load(views[RAW], at);
-                    r2 = r2 + V::load(views[RAW2], at);
+                    let raw = V::load(views[RAW], at);
+                    r1 = r1 + raw;
+                    r2 = r2 + raw * raw;
                     vt = vt + V::load(views[VAR_T], at);
-                    cnt = cnt + V::load(views[SURFACE], at);
+                    cnt = cnt + V::load(views[LEN], at).gt(zero).select(one, zero);
                 }
             }
-            let surface = V::load(views[SURFACE], c);
-            let here = surface.gt(zero);
+            let len_here = V::load(views[LEN], c);
+            let here = len_here.gt(zero);
             // cnt >= 1 wherever the pixel itself is a surface.
             let inv = V::splat(1.0) / here.select(cnt, V::splat(1.0));
             let var_t = vt * inv;
-            let len = V::load(views[LEN], c).max(V::splat(1.0));
+            let len = len_here.max(one);
             let mean = r1 * inv;
             let var_s = (r2 * inv - mean * mean).max(zero).max(var_t);
             let var_raw = len.ge(V::splat(TRUST_MOMENTS)).select(var_t, var_s);
@@ -122,7 +125,7 @@ impl Kernel for Row<'_> {
                 left = more.select(left * 0.5, left);
             }
             for l in 0..n {
-                let l_need = if surface.0[l] > 0.0 {
+                let l_need = if len_here.0[l] > 0.0 {
                     (need.0[l] as u8).min(s.max_levels).max(s.min_levels)
                 } else {
                     0

@@ -213,9 +213,10 @@ pub(crate) struct Inputs<'a> {
 /// directly, at the pixels that take part in at least one level (the rest
 /// already hold their accumulated values there).
 ///
-/// Skipped tiles are never touched by a level; their accumulated values are
-/// copied once into the ping-pong planes a level reads, so neighbouring taps
-/// see them whichever planes they read.
+/// Skipped tiles are never touched by a level; the accumulated values of
+/// those within a tap's reach of a filtered tile are copied once into the
+/// ping-pong planes a level reads, so neighbouring taps see them whichever
+/// planes they read.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn filter(
     inp: &Inputs,
@@ -268,7 +269,8 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    /// Copies the accumulated values of skipped tiles into `dst`.
+    /// Copies the accumulated values of the skipped tiles that a tap can
+    /// read (`Tiles::halo`) into `dst`; the others are never read there.
     fn copy_skipped(&self, acc: &Planes, dst: &mut Planes) {
         let tiles = self.inp.tiles;
         let (stride, pad, w) = (acc.stride, acc.pad, acc.width);
@@ -277,11 +279,18 @@ impl Ctx<'_> {
         dst.par_rows_mut().enumerate().for_each(|(y, row)| {
             let from = &acc.data[a0 + y * block..a0 + (y + 1) * block];
             for tx in 0..tiles.columns() {
-                if tiles.skipped(tx, y / TILE) {
-                    let (x0, x1) = (pad + tx * TILE, pad + (tx * TILE + TILE).min(w));
+                if tiles.halo(tx, y / TILE) {
+                    let x0 = pad + tx * TILE;
+                    let n = TILE.min(w - tx * TILE);
                     for k in 0..signal::COUNT {
-                        let o = k * stride;
-                        row[o + x0..o + x1].copy_from_slice(&from[o + x0..o + x1]);
+                        let o = k * stride + x0;
+                        // A whole tile row as one fixed copy (a copy of
+                        // variable length is a library call).
+                        if n == TILE {
+                            row[o..o + TILE].copy_from_slice(&from[o..o + TILE]);
+                        } else {
+                            row[o..o + n].copy_from_slice(&from[o..o + n]);
+                        }
                     }
                 }
             }
@@ -500,6 +509,7 @@ impl Kernel for LevelRow<'_, '_> {
         let w = src.width;
         let tiles = ctx.inp.tiles;
         let g = ctx.inp.guides;
+        let to_planes = matches!(dst, Dst::Planes(_));
         for tx in 0..tiles.columns() {
             if tiles.skipped(tx, y / TILE) {
                 continue;
@@ -515,6 +525,21 @@ impl Kernel for LevelRow<'_, '_> {
                 lv[..n].copy_from_slice(levels);
             }
             let active = lv.iter().any(|&l| l > level);
+            // A group none of whose pixels took part in the previous level
+            // holds its final values in the level before that one's
+            // output, which is the plane this level writes (the two
+            // ping-pong planes alternate): passing them on again would
+            // move 56 bytes per pixel for nothing. At the last level a
+            // group with no pixel in any level keeps the values already in
+            // the caller's buffers.
+            let settled = if to_planes {
+                level >= 2 && !lv.iter().any(|&l| l >= level)
+            } else {
+                lv.iter().all(|&l| l == 0)
+            };
+            if settled {
+                continue;
+            }
             // Source values: what a pixel that takes no part in this level
             // passes on.
             let mut val = [V::default(); 6];
@@ -536,7 +561,7 @@ impl Kernel for LevelRow<'_, '_> {
                     val[c] = take.select(f.u[c], val[c]);
                     val[3 + c] = take.select(f.s[c], val[3 + c]);
                 }
-                if let Dst::Planes(_) = dst {
+                if to_planes {
                     ratio = take.select(ratio_lanes(&f), ratio);
                 }
             }

@@ -316,7 +316,9 @@ impl Kernel for Row<'_, '_> {
                 for (k, v) in sg.into_iter().enumerate() {
                     sv[k][l] = v;
                 }
-                let v = [r, r * r, (m2 - m1 * m1).max(0.0), 1.0, len];
+                // Per `noise`'s planes; `len` is positive here (1 or more
+                // up to rounding), which marks the pixel as a surface there.
+                let v = [r, (m2 - m1 * m1).max(0.0), len];
                 for (k, v) in v.into_iter().enumerate() {
                     nv[k][l] = v;
                 }

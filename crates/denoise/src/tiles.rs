@@ -25,6 +25,9 @@ pub(crate) struct Tiles {
     /// AND of the per-pixel class bits; nonzero = uniform (or empty).
     class: Vec<u8>,
     skip: Vec<bool>,
+    /// Skipped tiles that a filtered tile's taps can reach (see
+    /// [`Tiles::mark_halo`]).
+    halo: Vec<bool>,
 }
 
 impl Tiles {
@@ -36,6 +39,7 @@ impl Tiles {
             th,
             class: vec![0; tw * th],
             skip: vec![false; tw * th],
+            halo: vec![false; tw * th],
         }
     }
 
@@ -52,6 +56,35 @@ impl Tiles {
     #[inline]
     pub fn skipped(&self, tx: usize, ty: usize) -> bool {
         self.skip[ty * self.tw + tx]
+    }
+
+    /// Whether skipped tile (tx, ty) lies within the reach of a filtered
+    /// tile's taps, as the last [`Tiles::mark_halo`] found.
+    #[inline]
+    pub fn halo(&self, tx: usize, ty: usize) -> bool {
+        self.halo[ty * self.tw + tx]
+    }
+
+    /// Marks the skipped tiles with a filtered tile at most `reach` tiles
+    /// away (in x and in y): the only skipped tiles whose values an
+    /// à-trous tap reads. The filter copies no others into its ping-pong
+    /// planes, which on a mostly settled frame is most of that copy.
+    pub fn mark_halo(&mut self, reach: usize) {
+        let (tw, th) = (self.tw, self.th);
+        let skip = &self.skip;
+        self.halo
+            .par_chunks_mut(tw)
+            .enumerate()
+            .for_each(|(ty, row)| {
+                let rows = ty.saturating_sub(reach)..(ty + reach + 1).min(th);
+                for (tx, h) in row.iter_mut().enumerate() {
+                    let cols = tx.saturating_sub(reach)..(tx + reach + 1).min(tw);
+                    *h = skip[ty * tw + tx]
+                        && rows
+                            .clone()
+                            .any(|ny| cols.clone().any(|nx| !skip[ny * tw + nx]));
+                }
+            });
     }
 
     /// The class bits of tile `t` (`LIT`, `DARK`, both for an empty tile,
