@@ -541,14 +541,15 @@ fn draw_in_lanes(
             c.uy.0[l] = scratch.dir_y[i];
         }
     }
-    penumbra_isa::run(DrawLanesBatch {
+    DrawLanesBatch {
         lights: samplers,
         declared: world.lights.declared(),
         inv_spp: 1.0 / band.spp as f32,
         groups: &scratch.groups,
         input: &scratch.lanes_in,
         out: &mut scratch.lanes_out,
-    });
+    }
+    .run();
     for (j, &(k, m)) in drawn.iter().enumerate() {
         let g = &band.gbuf[k];
         if g.kind != PixelKind::Surface {
@@ -617,9 +618,7 @@ struct DrawLanesBatch<'a> {
     out: &'a mut [DrawLanesOut],
 }
 
-impl Kernel for DrawLanesBatch<'_> {
-    type Out = ();
-    #[inline(always)]
+impl DrawLanesBatch<'_> {
     fn run(self) {
         for &(li, a, b) in self.groups {
             let light = LanesLight {
@@ -628,17 +627,53 @@ impl Kernel for DrawLanesBatch<'_> {
                 inv_spp: self.inv_spp,
             };
             let (a, b) = (a as usize, b as usize);
-            let chunks = self.input[a..b].iter().zip(self.out[a..b].iter_mut());
-            // One loop per sampler, so the sampler's test leaves the loop.
+            let chunks = LightChunks {
+                light,
+                input: &self.input[a..b],
+                out: &mut self.out[a..b],
+            };
             if light.light.is_rect() {
-                for (i, o) in chunks {
-                    *o = draw_rect_lanes(&light, i);
-                }
+                penumbra_isa::run(RectChunks(chunks));
             } else {
-                for (i, o) in chunks {
-                    *o = draw_fan_lanes(&light, i);
-                }
+                penumbra_isa::run(FanChunks(chunks));
             }
+        }
+    }
+}
+
+/// One light's run of chunks.
+struct LightChunks<'a> {
+    light: LanesLight<'a>,
+    input: &'a [DrawLanesIn],
+    out: &'a mut [DrawLanesOut],
+}
+
+/// A rectangle light's chunks. The two samplers are separate kernels, so
+/// each is compiled as its own function per ISA level: one function holding
+/// both took the optimiser several times as long as the two apart.
+struct RectChunks<'a>(LightChunks<'a>);
+
+impl Kernel for RectChunks<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        let c = self.0;
+        for (i, o) in c.input.iter().zip(c.out.iter_mut()) {
+            *o = draw_rect_lanes(&c.light, i);
+        }
+    }
+}
+
+/// A fan light's chunks.
+struct FanChunks<'a>(LightChunks<'a>);
+
+impl Kernel for FanChunks<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        let c = self.0;
+        for (i, o) in c.input.iter().zip(c.out.iter_mut()) {
+            *o = draw_fan_lanes(&c.light, i);
         }
     }
 }
