@@ -306,6 +306,15 @@ impl PackedLtc {
     /// for finite inputs (a test checks it; a NaN reads cell (0, 0) here).
     #[inline(always)]
     pub fn lookup_wide(&self, roughness: Wide, cos_view: Wide) -> [Wide; 16] {
+        let mut cells = [[0.0f32; 16]; LANES];
+        self.lookup_cells(roughness, cos_view, &mut cells);
+        std::array::from_fn(|f| Lanes(std::array::from_fn(|l| cells[l][f])))
+    }
+
+    /// `lookup_packed` of a batch's pixels into `out[l]` (lane `l` = pixel
+    /// `l`), each cell's 16 values as `packed_fields` orders them.
+    #[inline(always)]
+    pub fn lookup_cells(&self, roughness: Wide, cos_view: Wide, out: &mut [[f32; 16]; LANES]) {
         let n = Wide::splat((self.size - 1) as f32);
         let x = roughness.clamp(0.0f32, 1.0f32) * n;
         let y = (Wide::ONE - cos_view.clamp(0.0f32, 1.0f32)).sqrt() * n;
@@ -318,12 +327,10 @@ impl PackedLtc {
         // `bilinear_weights` across the lanes.
         let (gx, gy) = (Wide::ONE - fx, Wide::ONE - fy);
         let w = [gx * gy, fx * gy, gx * fy, fx * fy];
-        let mut cells = [[0.0f32; 16]; LANES];
-        for (l, cell) in cells.iter_mut().enumerate() {
+        for (l, cell) in out.iter_mut().enumerate() {
             let k = j0[l] as usize * self.size + i0[l] as usize;
             *cell = self.blend16(k, w.map(|w| w.0[l]));
         }
-        std::array::from_fn(|f| Lanes(std::array::from_fn(|l| cells[l][f])))
     }
 
     /// The bilinear blend of cells `k`, `k + 1` and the two above them,
@@ -382,11 +389,11 @@ impl CellLanes {
         CellLanes(f)
     }
 
-    /// Lanes `4 h..4 h + 4` of `fields` (as `PackedLtc::lookup_wide` gives
-    /// them).
+    /// The fields of `lo` (lanes 0-3) and `hi` (lanes 4-7) as eight
+    /// lanes each.
     #[inline(always)]
-    pub fn from_wide_half(fields: &[Wide; 16], h: usize) -> CellLanes {
-        CellLanes(fields.map(|f| f.vec4_half(h)))
+    pub fn join(lo: &CellLanes, hi: &CellLanes) -> [Wide; 16] {
+        std::array::from_fn(|f| Wide::from_halves(lo.0[f], hi.0[f]))
     }
 
     /// Lane `l` from `cells[l]` (as `lookup_packed` gives them): four 4x4

@@ -210,12 +210,29 @@ impl PixelBatch {
     /// path's formulas in its order of operations, so every lane gets its
     /// pixel's frame, cell and constants bit for bit.
     pub fn set(&mut self, lanes: [Option<&SurfacePoint>; LANES]) {
-        isa::run(SetBatch { batch: self, lanes })
+        // Two kernels, the blended cells in memory between them: as one,
+        // LLVM interleaved the per-lane blends with their transposition and
+        // the constants, and spilled most of what it held.
+        let mut cells = Cells {
+            cells: [[0.0; 16]; LANES],
+            cos_v: Wide::ZERO,
+            roughness: Wide::ZERO,
+        };
+        isa::run(SetPoints {
+            batch: self,
+            lanes,
+            cells: &mut cells,
+        });
+        isa::run(SetCells {
+            batch: self,
+            cells: &cells,
+        });
     }
 
+    /// The points' fields, frames and masks, and each lane's LTC cell
+    /// (the blank cell in lanes without a specular lobe) into `cells`.
     #[inline(always)]
-    fn setup(&mut self, lanes: [Option<&SurfacePoint>; LANES]) {
-        const { assert!(LANES == 2 * HALF && HALF == 4, "two Vec4 halves") };
+    fn set_points(&mut self, lanes: [Option<&SurfacePoint>; LANES], cells: &mut Cells) {
         let sp: [&SurfacePoint; LANES] = std::array::from_fn(|l| lanes[l].unwrap_or(&BLANK));
         let active = Mask::from_fn(|l| lanes[l].is_some());
         let ks = [
@@ -228,6 +245,10 @@ impl PixelBatch {
         // there is a lobe (the same test).
         let lobe = active.and(ks[0].max(ks[1]).max(ks[2]).gt(Wide::ZERO));
         let want_b = lobe.and(ks[0].min(ks[1]).min(ks[2]).lt(Wide::ONE));
+        self.active = active;
+        self.lobe = lobe;
+        self.want_b = want_b;
+        self.ks = ks;
         let n = [
             gather(&sp, |s| s.n.x),
             gather(&sp, |s| s.n.y),
@@ -240,50 +261,18 @@ impl PixelBatch {
         ];
         let (frame, cos_v) = frames(&n, &wo);
         self.frame = frame;
+        let roughness = gather(&sp, |s| s.roughness);
+        ltc::packed_table().lookup_cells(roughness, cos_v, &mut cells.cells);
         // Lanes without a specular lobe (and padding) get a harmless
         // cell (their lobes are masked off): identity matrices, unit
         // masses, no magnitude; a normal view and alpha 1.
-        let roughness = gather(&sp, |s| s.roughness);
-        let mut f = ltc::packed_table().lookup_wide(roughness, cos_v);
-        let blank = ltc::packed_fields(&BLANK_CELL);
-        for (f, &b) in f.iter_mut().zip(&blank) {
-            *f = lobe.select(*f, Wide::splat(b));
+        for (l, cell) in cells.cells.iter_mut().enumerate() {
+            if !lobe.lane(l) {
+                *cell = BLANK_FIELDS;
+            }
         }
-        let c = cos_v.clamp(0.0f32, 1.0f32);
-        let view = [
-            lobe.select((Wide::ONE - c * c).sqrt(), Wide::ZERO),
-            lobe.select(c, Wide::ONE),
-        ];
-        // `alpha_from_roughness`.
-        let r = roughness.clamp(0.0f32, 1.0f32);
-        let alpha = lobe.select((r * r).max(Wide::splat(MIN_ALPHA)), Wide::ONE);
-        let half = |h: usize| {
-            (
-                CellLanes::from_wide_half(&f, h),
-                [view[0].vec4_half(h), view[1].vec4_half(h)],
-                alpha.vec4_half(h),
-            )
-        };
-        let (h0, h1) = (half(0), half(1));
-        self.corr = CorrectionLanes::new([(&h0.0, h0.1, h0.2), (&h1.0, h1.1, h1.2)]);
-        let ma = [f[0], f[1], f[2], f[3]];
-        let mb = [f[7], f[8], f[9], f[10]];
-        self.sharp = lobe
-            .and(ill_conditioned(&ma))
-            .or(want_b.and(ill_conditioned(&mb)));
-        self.ma = ma;
-        self.mb = mb;
-        let (mix, fmix) = (f[6], f[13]);
-        self.wa = (Wide::ONE - mix) / f[5];
-        self.mix = mix;
-        self.wb = (Wide::ONE - fmix) / f[12];
-        self.fmix = fmix;
-        self.mag = f[4];
-        self.fres = f[11];
-        self.active = active;
-        self.lobe = lobe;
-        self.want_b = want_b;
-        self.ks = ks;
+        cells.cos_v = cos_v;
+        cells.roughness = roughness;
         self.p = [
             gather(&sp, |s| s.p.x),
             gather(&sp, |s| s.p.y),
@@ -298,6 +287,50 @@ impl PixelBatch {
         for (to, from) in self.sp.iter_mut().zip(sp) {
             *to = *from;
         }
+    }
+
+    /// The LTC cells of `cells` in lanes, and the correction's constants.
+    #[inline(always)]
+    fn set_cells(&mut self, cells: &Cells) {
+        const { assert!(LANES == 2 * HALF && HALF == 4, "two Vec4 halves") };
+        let lobe = self.lobe;
+        let packed = |l: usize| {
+            let c = &cells.cells[l];
+            [0, 4, 8, 12].map(|k| Vec4::from_slice(&c[k..k + 4]))
+        };
+        let halves =
+            [0, 1].map(|h| CellLanes::from_packed(&[0, 1, 2, 3].map(|l| packed(HALF * h + l))));
+        let f = CellLanes::join(&halves[0], &halves[1]);
+        let c = cells.cos_v.clamp(0.0f32, 1.0f32);
+        let view = [
+            lobe.select((Wide::ONE - c * c).sqrt(), Wide::ZERO),
+            lobe.select(c, Wide::ONE),
+        ];
+        // `alpha_from_roughness`.
+        let r = cells.roughness.clamp(0.0f32, 1.0f32);
+        let alpha = lobe.select((r * r).max(Wide::splat(MIN_ALPHA)), Wide::ONE);
+        let at = |h: usize| {
+            (
+                [view[0].vec4_half(h), view[1].vec4_half(h)],
+                alpha.vec4_half(h),
+            )
+        };
+        let (a0, a1) = (at(0), at(1));
+        self.corr = CorrectionLanes::new([(&halves[0], a0.0, a0.1), (&halves[1], a1.0, a1.1)]);
+        let ma = [f[0], f[1], f[2], f[3]];
+        let mb = [f[7], f[8], f[9], f[10]];
+        self.sharp = lobe
+            .and(ill_conditioned(&ma))
+            .or(self.want_b.and(ill_conditioned(&mb)));
+        self.ma = ma;
+        self.mb = mb;
+        let (mix, fmix) = (f[6], f[13]);
+        self.wa = (Wide::ONE - mix) / f[5];
+        self.mix = mix;
+        self.wb = (Wide::ONE - fmix) / f[12];
+        self.fmix = fmix;
+        self.mag = f[4];
+        self.fres = f[11];
     }
 
     /// The luminance of `U` that other lights give each lane, for the next
@@ -341,17 +374,41 @@ fn ill_conditioned(m: &[Wide; 4]) -> Mask {
     hi.gt(Wide::splat(MAX_CONDITION) * lo)
 }
 
-/// `PixelBatch::set` as a `Kernel` (`isa`).
-struct SetBatch<'a> {
-    batch: &'a mut PixelBatch,
-    lanes: [Option<&'a SurfacePoint>; LANES],
+/// Each lane's blended LTC cell (`PackedLtc::lookup_cells`), and what
+/// the correction's constants take besides, between `PixelBatch::set`'s
+/// two kernels.
+struct Cells {
+    cells: [[f32; 16]; LANES],
+    cos_v: Wide,
+    roughness: Wide,
 }
 
-impl Kernel for SetBatch<'_> {
+/// `PixelBatch::set_points` as a `Kernel` (`isa`).
+struct SetPoints<'a> {
+    batch: &'a mut PixelBatch,
+    lanes: [Option<&'a SurfacePoint>; LANES],
+    cells: &'a mut Cells,
+}
+
+impl Kernel for SetPoints<'_> {
     type Out = ();
     #[inline(always)]
     fn run(self) {
-        self.batch.setup(self.lanes)
+        self.batch.set_points(self.lanes, self.cells)
+    }
+}
+
+/// `PixelBatch::set_cells` as a `Kernel` (`isa`).
+struct SetCells<'a> {
+    batch: &'a mut PixelBatch,
+    cells: &'a Cells,
+}
+
+impl Kernel for SetCells<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        self.batch.set_cells(self.cells)
     }
 }
 
@@ -382,6 +439,15 @@ const BLANK_CELL: LtcCell = LtcCell {
     fhmass: 1.0,
     fmix: 0.0,
     err: 0.0,
+};
+
+/// `BLANK_CELL` as `PackedLtc::lookup_cells` gives a cell.
+const BLANK_FIELDS: [f32; 16] = {
+    let c = BLANK_CELL;
+    [
+        c.m00, c.m02, c.m20, c.m22, c.mag, c.hmass, c.mix, c.f00, c.f02, c.f20, c.f22, c.fres,
+        c.fhmass, c.fmix, c.err, 0.0,
+    ]
 };
 
 /// `ShadingBasis::from_normal_view` of each lane (rows x, y, z as world vectors),
