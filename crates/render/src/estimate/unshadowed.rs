@@ -183,21 +183,21 @@ impl Run {
     #[inline]
     fn add_lanes(&mut self, out: &mut TileOut, light: usize, lobes: &LaneLobes) {
         let mut total = [[0.0f32; LANES]; 3];
-        for (c, t) in total.iter_mut().enumerate() {
-            for l in 0..LANES {
-                t[l] = lobes.diffuse[c][l] + lobes.specular[c][l];
-                self.u[c][l] += t[l];
+        for (c, (total, u)) in total.iter_mut().zip(&mut self.u).enumerate() {
+            for (l, (t, u)) in total.iter_mut().zip(u.iter_mut()).enumerate() {
+                *t = lobes.diffuse[c][l] + lobes.specular[c][l];
+                *u += *t;
             }
         }
-        for l in 0..LANES {
+        for (l, (spec, kept)) in self.spec.iter_mut().zip(&mut self.kept).enumerate() {
             let s = Vec3::new(
                 lobes.specular[0][l],
                 lobes.specular[1][l],
                 lobes.specular[2][l],
             );
             let t = Vec3::new(total[0][l], total[1][l], total[2][l]);
-            self.spec[l] += luminance(s);
-            self.kept[l] += luminance(t);
+            *spec += luminance(s);
+            *kept += luminance(t);
         }
         let lights = out.lights;
         for (_, l) in self.lanes() {
