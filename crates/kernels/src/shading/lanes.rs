@@ -345,6 +345,13 @@ impl Wide8 {
     pub fn half(self, h: usize) -> Quad {
         Lanes(each(|l| f64::from(self.0[HALF * h + l])))
     }
+
+    /// Half `h` (lanes `4 h..4 h + 4`) as glam's `Vec4` (what code
+    /// written four pixels per `Vec4` reads).
+    #[inline(always)]
+    pub fn vec4_half(self, h: usize) -> glam::Vec4 {
+        glam::Vec4::from_slice(&self.0[HALF * h..HALF * h + HALF])
+    }
 }
 
 impl LaneMask<f32, LANES> {

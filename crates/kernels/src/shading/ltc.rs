@@ -24,7 +24,8 @@
 //! there and renormalise); and `err`, the fit's error on polygon integrals
 //! (diagnostic only, see `ltc_fit`).
 
-use glam::{DMat3, IVec4, Mat4, Vec4};
+use super::lanes::{LANES, Lanes, Wide};
+use glam::{DMat3, Mat4, Vec4};
 use std::sync::OnceLock;
 
 /// Values per cell, in this order.
@@ -258,14 +259,14 @@ pub struct PackedLtc {
 
 #[derive(Clone, Copy, Debug)]
 #[repr(align(64))]
-struct PackedCell([Vec4; 4]);
+struct PackedCell([f32; 16]);
 
 impl PackedLtc {
     pub fn new(table: &LtcTable) -> PackedLtc {
         let cells = table
             .cells
             .iter()
-            .map(|c| PackedCell(packed_cell(c)))
+            .map(|c| PackedCell(packed_fields(c)))
             .collect();
         PackedLtc {
             size: table.size,
@@ -296,53 +297,80 @@ impl PackedLtc {
 }
 
 impl PackedLtc {
-    /// `lookup_packed` of four pixels (lane `l` = pixel `l`), the cell
-    /// coordinates computed across the lanes: the same cells bit for bit
+    /// `lookup_packed` of a batch's pixels (lane `l` = pixel `l`), field by
+    /// field: `out[f]` holds field `f` (`LtcCell::to_array` order, the 16th
+    /// 0) of every lane's cell. The cell coordinates are computed across
+    /// the lanes, each lane's blend runs over its 16 fields at once (two
+    /// 8-wide vectors at AVX2, where four `Vec4` took four), and the
+    /// blends are transposed into lanes once: the same cells bit for bit
     /// for finite inputs (a test checks it; a NaN reads cell (0, 0) here).
     #[inline(always)]
-    pub fn lookup_lanes(&self, roughness: Vec4, cos_view: Vec4) -> [[Vec4; 4]; 4] {
-        let n = Vec4::splat((self.size - 1) as f32);
-        let x = roughness.clamp(Vec4::ZERO, Vec4::ONE) * n;
-        let y = (Vec4::ONE - cos_view.clamp(Vec4::ZERO, Vec4::ONE)).sqrt() * n;
+    pub fn lookup_wide(&self, roughness: Wide, cos_view: Wide) -> [Wide; 16] {
+        let mut cells = [[0.0f32; 16]; LANES];
+        self.lookup_cells(roughness, cos_view, &mut cells);
+        std::array::from_fn(|f| Lanes(std::array::from_fn(|l| cells[l][f])))
+    }
+
+    /// `lookup_packed` of a batch's pixels into `out[l]` (lane `l` = pixel
+    /// `l`), each cell's 16 values as `packed_fields` orders them.
+    #[inline(always)]
+    pub fn lookup_cells(&self, roughness: Wide, cos_view: Wide, out: &mut [[f32; 16]; LANES]) {
+        let n = Wide::splat((self.size - 1) as f32);
+        let x = roughness.clamp(0.0f32, 1.0f32) * n;
+        let y = (Wide::ONE - cos_view.clamp(0.0f32, 1.0f32)).sqrt() * n;
         // x, y in [0, size - 1]: truncation as `cell_coords`' `as usize`.
-        let last = IVec4::splat(self.size as i32 - 2);
-        let (i0, j0) = (x.as_ivec4().min(last), y.as_ivec4().min(last));
-        let (fx, fy) = (x - i0.as_vec4(), y - j0.as_vec4());
+        let last = self.size as i32 - 2;
+        let i0: [i32; LANES] = std::array::from_fn(|l| (x.0[l] as i32).min(last));
+        let j0: [i32; LANES] = std::array::from_fn(|l| (y.0[l] as i32).min(last));
+        let fx = x - Lanes(i0.map(|i| i as f32));
+        let fy = y - Lanes(j0.map(|j| j as f32));
         // `bilinear_weights` across the lanes.
-        let (gx, gy) = (Vec4::ONE - fx, Vec4::ONE - fy);
+        let (gx, gy) = (Wide::ONE - fx, Wide::ONE - fy);
         let w = [gx * gy, fx * gy, gx * fy, fx * fy];
-        let mut out = [[Vec4::ZERO; 4]; 4];
-        for (l, out) in out.iter_mut().enumerate() {
+        for (l, cell) in out.iter_mut().enumerate() {
             let k = j0[l] as usize * self.size + i0[l] as usize;
-            *out = self.blend(k, w.map(|w| w[l]));
+            *cell = self.blend16(k, w.map(|w| w.0[l]));
         }
-        out
     }
 
     /// The bilinear blend of cells `k`, `k + 1` and the two above them,
-    /// with their weights `w` (`bilinear_weights`).
+    /// with their weights `w` (`bilinear_weights`), all 16 values at once.
     #[inline(always)]
-    fn blend(&self, k: usize, w: [f32; 4]) -> [Vec4; 4] {
+    fn blend16(&self, k: usize, [w00, w10, w01, w11]: [f32; 4]) -> [f32; 16] {
         let (a, b) = (&self.cells[k].0, &self.cells[k + 1].0);
         let (c, d) = (
             &self.cells[k + self.size].0,
             &self.cells[k + self.size + 1].0,
         );
-        let [w00, w10, w01, w11] = w.map(Vec4::splat);
-        let mut out = [Vec4::ZERO; 4];
-        for (k, out) in out.iter_mut().enumerate() {
-            *out = d[k].mul_add(w11, c[k].mul_add(w01, b[k].mul_add(w10, a[k] * w00)));
+        let mut out = [0.0f32; 16];
+        for (f, out) in out.iter_mut().enumerate() {
+            *out = d[f].mul_add(w11, c[f].mul_add(w01, b[f].mul_add(w10, a[f] * w00)));
         }
         out
+    }
+
+    /// `blend16` as four `Vec4` (`lookup_packed`).
+    #[inline(always)]
+    fn blend(&self, k: usize, w: [f32; 4]) -> [Vec4; 4] {
+        let v = self.blend16(k, w);
+        [0, 4, 8, 12].map(|i| Vec4::from_slice(&v[i..i + 4]))
     }
 }
 
 /// A cell as `PackedLtc::lookup_packed` gives it.
 #[inline(always)]
 pub fn packed_cell(c: &LtcCell) -> [Vec4; 4] {
+    let a = packed_fields(c);
+    [0, 4, 8, 12].map(|k| Vec4::from_slice(&a[k..k + 4]))
+}
+
+/// A cell's fields as `PackedLtc::lookup_wide` gives each lane: in
+/// `LtcCell::to_array` order, the 16th 0.
+#[inline(always)]
+pub fn packed_fields(c: &LtcCell) -> [f32; 16] {
     let mut a = [0.0f32; 16];
     a[..FIELDS].copy_from_slice(&c.to_array());
-    [0, 4, 8, 12].map(|k| Vec4::from_slice(&a[k..k + 4]))
+    a
 }
 
 /// The cells of four pixels (one per lane, as `lanes::Wide`), field by
@@ -359,6 +387,13 @@ impl CellLanes {
             *f = Vec4::splat(v);
         }
         CellLanes(f)
+    }
+
+    /// The fields of `lo` (lanes 0-3) and `hi` (lanes 4-7) as eight
+    /// lanes each.
+    #[inline(always)]
+    pub fn join(lo: &CellLanes, hi: &CellLanes) -> [Wide; 16] {
+        std::array::from_fn(|f| Wide::from_halves(lo.0[f], hi.0[f]))
     }
 
     /// Lane `l` from `cells[l]` (as `lookup_packed` gives them): four 4x4
@@ -453,14 +488,21 @@ mod tests {
     #[test]
     fn lane_lookup_equals_one_pixel_lookup_bit_for_bit() {
         let p = packed_table();
-        // As below, on a coarser grid, four different pixels at a time.
+        // As below, on a coarser grid, eight different pixels at a time.
         let at = |i: usize| -0.02 + 1.04 * (i % 301) as f32 / 300.0;
         for i in 0..301 * 8 {
-            let r = Vec4::from_array(std::array::from_fn(|l| at(i + 37 * l)));
-            let c = Vec4::from_array(std::array::from_fn(|l| at(i / 8 + 101 * l)));
-            let lanes = p.lookup_lanes(r, c);
-            for l in 0..4 {
-                assert_eq!(lanes[l], p.lookup_packed(r[l], c[l]), "{r} {c} lane {l}");
+            let r = Wide::from_fn(|l| at(i + 37 * l));
+            let c = Wide::from_fn(|l| at(i / 8 + 101 * l));
+            let lanes = p.lookup_wide(r, c);
+            for l in 0..LANES {
+                let want = p.lookup_packed(r.0[l], c.0[l]);
+                for (f, lane) in lanes.iter().enumerate() {
+                    assert_eq!(
+                        lane.0[l].to_bits(),
+                        want[f / 4][f % 4].to_bits(),
+                        "{r:?} {c:?} lane {l} field {f}"
+                    );
+                }
             }
         }
     }

@@ -6,10 +6,10 @@
 //! across pixels.
 //!
 //! Per batch, what does not depend on the light is set up once, across the
-//! lanes in `f32`, four pixels per `Vec4` (`PixelBatch::new`, bit for bit
-//! the scalar path's values): the shading frame, the LTC cell (the blend of
-//! four table cells stays a per-lane gather, transposed into lanes) and the
-//! correction's constants. Per light, the vertices are taken into each
+//! lanes in `f32`, eight pixels per `Wide` (`PixelBatch::set`, in place,
+//! bit for bit the scalar path's values): the shading frame, the LTC cell
+//! (the blend of four table cells stays a per-lane gather, transposed into
+//! lanes) and the correction's constants (four pixels per `Vec4`). Per light, the vertices are taken into each
 //! lane's local frame; each contour sum is a loop over the edges with
 //! running sums.
 //!
@@ -64,7 +64,7 @@ fn slots<const N: usize>(len: usize) -> usize {
     if N == 0 { len } else { N }
 }
 use super::unshadowed::{ShadingLight, SurfacePoint, unshadowed_lobes_among};
-use glam::{BVec4A, DVec3, Vec3, Vec4};
+use glam::{DVec3, Vec3, Vec4};
 use penumbra_isa::{self as isa, Kernel};
 use penumbra_scene::Light;
 use penumbra_scene::color::luminance;
@@ -167,80 +167,170 @@ pub struct PixelBatch {
 
 impl PixelBatch {
     /// `points[l]` for each lane `l` that has one (at most `LANES`).
-    ///
-    /// Across the lanes in `f32`, four pixels per `Vec4` (glam), with the
-    /// scalar path's formulas in its order of operations, so every lane
-    /// gets its pixel's frame, cell and constants bit for bit.
     pub fn new(points: &[Option<SurfacePoint>]) -> PixelBatch {
-        isa::run(NewBatch(points))
+        let mut batch = PixelBatch::blank();
+        batch.set(std::array::from_fn(|l| {
+            points.get(l).and_then(Option::as_ref)
+        }));
+        batch
     }
 
-    #[inline(always)]
-    fn setup(points: &[Option<SurfacePoint>]) -> PixelBatch {
-        const { assert!(LANES == 2 * HALF && HALF == 4, "two Vec4 halves") };
-        // Read in place (each field gathered once across the lanes); the
-        // points themselves are copied once, into the batch.
-        let at = |l: usize| points.get(l).and_then(Option::as_ref);
-        let sp: [&SurfacePoint; LANES] = std::array::from_fn(|l| at(l).unwrap_or(&BLANK));
-        let active = Mask::from_fn(|l| at(l).is_some());
-        let v4 = |h: usize, f: fn(&SurfacePoint) -> f32| {
-            Vec4::from_array(std::array::from_fn(|l| f(sp[HALF * h + l])))
+    /// A batch of padding lanes only: storage for `set`.
+    pub fn blank() -> PixelBatch {
+        let (view, alpha) = ([Vec4::ZERO, Vec4::ONE], Vec4::ONE);
+        let cells = CellLanes::splat(&BLANK_CELL);
+        PixelBatch {
+            sp: [BLANK; LANES],
+            active: Mask::NONE,
+            p: [Wide::ZERO; 3],
+            frame: [[Wide::ZERO; 3]; 3],
+            kd: [Wide::ZERO; 3],
+            ks: [Wide::ZERO; 3],
+            lobe: Mask::NONE,
+            want_b: Mask::NONE,
+            sharp: Mask::NONE,
+            ma: [Wide::ZERO; 4],
+            mb: [Wide::ZERO; 4],
+            wa: Wide::ZERO,
+            mix: Wide::ZERO,
+            wb: Wide::ZERO,
+            fmix: Wide::ZERO,
+            mag: Wide::ZERO,
+            fres: Wide::ZERO,
+            corr: CorrectionLanes::new([(&cells, view, alpha), (&cells, view, alpha)]),
+            others: Wide::ZERO,
+        }
+    }
+
+    /// Makes this batch the one of `lanes` (`None`: a padding lane), in
+    /// place: the batch is a few kilobytes, and building it in its slot
+    /// spares the copies a returned value took.
+    ///
+    /// Across the lanes in `f32`, eight pixels per `Wide`, with the scalar
+    /// path's formulas in its order of operations, so every lane gets its
+    /// pixel's frame, cell and constants bit for bit.
+    pub fn set(&mut self, lanes: [Option<&SurfacePoint>; LANES]) {
+        // Two kernels, the blended cells in memory between them: as one,
+        // LLVM interleaved the per-lane blends with their transposition and
+        // the constants, and spilled most of what it held.
+        let mut cells = Cells {
+            cells: [[0.0; 16]; LANES],
+            cos_v: Wide::ZERO,
+            roughness: Wide::ZERO,
         };
-        let v8 = |f: fn(&SurfacePoint) -> f32| Wide::from_halves(v4(0, f), v4(1, f));
+        isa::run(SetPoints {
+            batch: self,
+            lanes,
+            cells: &mut cells,
+        });
+        isa::run(SetCells {
+            batch: self,
+            cells: &cells,
+        });
+    }
+
+    /// The points' fields, frames and masks, and each lane's LTC cell
+    /// (the blank cell in lanes without a specular lobe) into `cells`.
+    #[inline(always)]
+    fn set_points(&mut self, lanes: [Option<&SurfacePoint>; LANES], cells: &mut Cells) {
+        let sp: [&SurfacePoint; LANES] = std::array::from_fn(|l| lanes[l].unwrap_or(&BLANK));
+        let active = Mask::from_fn(|l| lanes[l].is_some());
         let ks = [
-            v8(|s| s.specular.x),
-            v8(|s| s.specular.y),
-            v8(|s| s.specular.z),
+            gather(&sp, |s| s.specular.x),
+            gather(&sp, |s| s.specular.y),
+            gather(&sp, |s| s.specular.z),
         ];
         // `has_specular_lobe` (`Vec3::max_element`, whose compare-select
         // `Wide::max` is) and `min_element() < 1`. Lobe A is wanted wherever
         // there is a lobe (the same test).
         let lobe = active.and(ks[0].max(ks[1]).max(ks[2]).gt(Wide::ZERO));
         let want_b = lobe.and(ks[0].min(ks[1]).min(ks[2]).lt(Wide::ONE));
-        let (f0, c0, v0, al0) = half_setup(&sp, lobe, 0);
-        let (f1, c1, v1, al1) = half_setup(&sp, lobe, 1);
-        let join = |a: Vec4, b: Vec4| Wide::from_halves(a, b);
-        let mut frame = [[Wide::ZERO; 3]; 3];
-        for r in 0..3 {
-            for k in 0..3 {
-                frame[r][k] = join(f0[r][k], f1[r][k]);
+        self.active = active;
+        self.lobe = lobe;
+        self.want_b = want_b;
+        self.ks = ks;
+        let n = [
+            gather(&sp, |s| s.n.x),
+            gather(&sp, |s| s.n.y),
+            gather(&sp, |s| s.n.z),
+        ];
+        let wo = [
+            gather(&sp, |s| s.wo.x),
+            gather(&sp, |s| s.wo.y),
+            gather(&sp, |s| s.wo.z),
+        ];
+        let (frame, cos_v) = frames(&n, &wo);
+        self.frame = frame;
+        let roughness = gather(&sp, |s| s.roughness);
+        ltc::packed_table().lookup_cells(roughness, cos_v, &mut cells.cells);
+        // Lanes without a specular lobe (and padding) get a harmless
+        // cell (their lobes are masked off): identity matrices, unit
+        // masses, no magnitude; a normal view and alpha 1.
+        for (l, cell) in cells.cells.iter_mut().enumerate() {
+            if !lobe.lane(l) {
+                *cell = BLANK_FIELDS;
             }
         }
-        let (mut ma, mut mb) = ([Wide::ZERO; 4], [Wide::ZERO; 4]);
-        let (a0, a1, b0, b1) = (c0.ma(), c1.ma(), c0.mb(), c1.mb());
-        for k in 0..4 {
-            ma[k] = join(a0[k], a1[k]);
-            mb[k] = join(b0[k], b1[k]);
+        cells.cos_v = cos_v;
+        cells.roughness = roughness;
+        self.p = [
+            gather(&sp, |s| s.p.x),
+            gather(&sp, |s| s.p.y),
+            gather(&sp, |s| s.p.z),
+        ];
+        self.kd = [
+            gather(&sp, |s| s.diffuse.x),
+            gather(&sp, |s| s.diffuse.y),
+            gather(&sp, |s| s.diffuse.z),
+        ];
+        self.others = Wide::ZERO;
+        for (to, from) in self.sp.iter_mut().zip(sp) {
+            *to = *from;
         }
-        let (mix, fmix) = (join(c0.mix(), c1.mix()), join(c0.fmix(), c1.fmix()));
-        let sharp = lobe
+    }
+
+    /// The LTC cells of `cells` in lanes, and the correction's constants.
+    #[inline(always)]
+    fn set_cells(&mut self, cells: &Cells) {
+        const { assert!(LANES == 2 * HALF && HALF == 4, "two Vec4 halves") };
+        let lobe = self.lobe;
+        let packed = |l: usize| {
+            let c = &cells.cells[l];
+            [0, 4, 8, 12].map(|k| Vec4::from_slice(&c[k..k + 4]))
+        };
+        let halves =
+            [0, 1].map(|h| CellLanes::from_packed(&[0, 1, 2, 3].map(|l| packed(HALF * h + l))));
+        let f = CellLanes::join(&halves[0], &halves[1]);
+        let c = cells.cos_v.clamp(0.0f32, 1.0f32);
+        let view = [
+            lobe.select((Wide::ONE - c * c).sqrt(), Wide::ZERO),
+            lobe.select(c, Wide::ONE),
+        ];
+        // `alpha_from_roughness`.
+        let r = cells.roughness.clamp(0.0f32, 1.0f32);
+        let alpha = lobe.select((r * r).max(Wide::splat(MIN_ALPHA)), Wide::ONE);
+        let at = |h: usize| {
+            (
+                [view[0].vec4_half(h), view[1].vec4_half(h)],
+                alpha.vec4_half(h),
+            )
+        };
+        let (a0, a1) = (at(0), at(1));
+        self.corr = CorrectionLanes::new([(&halves[0], a0.0, a0.1), (&halves[1], a1.0, a1.1)]);
+        let ma = [f[0], f[1], f[2], f[3]];
+        let mb = [f[7], f[8], f[9], f[10]];
+        self.sharp = lobe
             .and(ill_conditioned(&ma))
-            .or(want_b.and(ill_conditioned(&mb)));
-        PixelBatch {
-            active,
-            p: [v8(|s| s.p.x), v8(|s| s.p.y), v8(|s| s.p.z)],
-            frame,
-            kd: [
-                v8(|s| s.diffuse.x),
-                v8(|s| s.diffuse.y),
-                v8(|s| s.diffuse.z),
-            ],
-            ks,
-            lobe,
-            want_b,
-            sharp,
-            ma,
-            mb,
-            wa: (Wide::ONE - mix) / join(c0.hmass(), c1.hmass()),
-            mix,
-            wb: (Wide::ONE - fmix) / join(c0.fhmass(), c1.fhmass()),
-            fmix,
-            mag: join(c0.mag(), c1.mag()),
-            fres: join(c0.fres(), c1.fres()),
-            corr: CorrectionLanes::new([(&c0, v0, al0), (&c1, v1, al1)]),
-            others: Wide::ZERO,
-            sp: std::array::from_fn(|l| *sp[l]),
-        }
+            .or(self.want_b.and(ill_conditioned(&mb)));
+        self.ma = ma;
+        self.mb = mb;
+        let (mix, fmix) = (f[6], f[13]);
+        self.wa = (Wide::ONE - mix) / f[5];
+        self.mix = mix;
+        self.wb = (Wide::ONE - fmix) / f[12];
+        self.fmix = fmix;
+        self.mag = f[4];
+        self.fres = f[11];
     }
 
     /// The luminance of `U` that other lights give each lane, for the next
@@ -255,54 +345,12 @@ impl PixelBatch {
     }
 }
 
-/// Half `h` of a batch's setup (lanes `4 h..4 h + 4`, one `Vec4`): the
-/// shading frames, the LTC cells, and the views `(sin, cos)` and GGX alphas
-/// the correction's constants are made from. A
-/// function, not a closure: a closure is compiled out of line at baseline,
-/// whatever instruction set its caller runs (`isa`).
+/// Field `f` of every lane's point. A function taking a function pointer,
+/// not a closure: a closure is compiled out of line at baseline, whatever
+/// instruction set its caller runs (`isa`).
 #[inline(always)]
-fn half_setup(
-    sp: &[&SurfacePoint; LANES],
-    lobe: Mask,
-    h: usize,
-) -> ([[Vec4; 3]; 3], CellLanes, [Vec4; 2], Vec4) {
-    let v4 = |f: fn(&SurfacePoint) -> f32| {
-        Vec4::new(
-            f(sp[HALF * h]),
-            f(sp[HALF * h + 1]),
-            f(sp[HALF * h + 2]),
-            f(sp[HALF * h + 3]),
-        )
-    };
-    let n = [v4(|s| s.n.x), v4(|s| s.n.y), v4(|s| s.n.z)];
-    let wo = [v4(|s| s.wo.x), v4(|s| s.wo.y), v4(|s| s.wo.z)];
-    let (frame, cos_v) = frames(&n, &wo);
-    // Lanes without a specular lobe (and padding) get a harmless
-    // cell (their lobes are masked off): identity matrices, unit
-    // masses, no magnitude; a normal view and alpha 1.
-    let on = BVec4A::new(
-        lobe.lane(HALF * h),
-        lobe.lane(HALF * h + 1),
-        lobe.lane(HALF * h + 2),
-        lobe.lane(HALF * h + 3),
-    );
-    let roughness = v4(|s| s.roughness);
-    let mut cells = ltc::packed_table().lookup_lanes(roughness, cos_v);
-    for (l, cell) in cells.iter_mut().enumerate() {
-        if !lobe.lane(HALF * h + l) {
-            *cell = ltc::packed_cell(&BLANK_CELL);
-        }
-    }
-    let cells = CellLanes::from_packed(&cells);
-    let c = cos_v.clamp(Vec4::ZERO, Vec4::ONE);
-    let view = [
-        Vec4::select(on, (Vec4::ONE - c * c).sqrt(), Vec4::ZERO),
-        Vec4::select(on, c, Vec4::ONE),
-    ];
-    // `alpha_from_roughness`.
-    let r = roughness.clamp(Vec4::ZERO, Vec4::ONE);
-    let alpha = Vec4::select(on, (r * r).max(Vec4::splat(MIN_ALPHA)), Vec4::ONE);
-    (frame, cells, view, alpha)
+fn gather(sp: &[&SurfacePoint; LANES], f: fn(&SurfacePoint) -> f32) -> Wide {
+    Lanes(std::array::from_fn(|l| f(sp[l])))
 }
 
 /// Largest condition number of an LTC map `M^-1` that the `f32` lanes
@@ -326,14 +374,41 @@ fn ill_conditioned(m: &[Wide; 4]) -> Mask {
     hi.gt(Wide::splat(MAX_CONDITION) * lo)
 }
 
-/// `PixelBatch::new` as a `Kernel` (`isa`).
-struct NewBatch<'a>(&'a [Option<SurfacePoint>]);
+/// Each lane's blended LTC cell (`PackedLtc::lookup_cells`), and what
+/// the correction's constants take besides, between `PixelBatch::set`'s
+/// two kernels.
+struct Cells {
+    cells: [[f32; 16]; LANES],
+    cos_v: Wide,
+    roughness: Wide,
+}
 
-impl Kernel for NewBatch<'_> {
-    type Out = PixelBatch;
+/// `PixelBatch::set_points` as a `Kernel` (`isa`).
+struct SetPoints<'a> {
+    batch: &'a mut PixelBatch,
+    lanes: [Option<&'a SurfacePoint>; LANES],
+    cells: &'a mut Cells,
+}
+
+impl Kernel for SetPoints<'_> {
+    type Out = ();
     #[inline(always)]
-    fn run(self) -> PixelBatch {
-        PixelBatch::setup(self.0)
+    fn run(self) {
+        self.batch.set_points(self.lanes, self.cells)
+    }
+}
+
+/// `PixelBatch::set_cells` as a `Kernel` (`isa`).
+struct SetCells<'a> {
+    batch: &'a mut PixelBatch,
+    cells: &'a Cells,
+}
+
+impl Kernel for SetCells<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        self.batch.set_cells(self.cells)
     }
 }
 
@@ -366,23 +441,34 @@ const BLANK_CELL: LtcCell = LtcCell {
     err: 0.0,
 };
 
+/// `BLANK_CELL` as `PackedLtc::lookup_cells` gives a cell.
+const BLANK_FIELDS: [f32; 16] = {
+    let c = BLANK_CELL;
+    [
+        c.m00, c.m02, c.m20, c.m22, c.mag, c.hmass, c.mix, c.f00, c.f02, c.f20, c.f22, c.fres,
+        c.fhmass, c.fmix, c.err, 0.0,
+    ]
+};
+
 /// `ShadingBasis::from_normal_view` of each lane (rows x, y, z as world vectors),
 /// and `n . wo` (the scalar path's LTC lookup cosine). Lanes whose view
 /// lies along the normal take the scalar fallback, lane by lane.
 #[inline(always)]
-fn frames(n: &[Vec4; 3], wo: &[Vec4; 3]) -> ([[Vec4; 3]; 3], Vec4) {
-    let dot = |a: &[Vec4; 3], b: &[Vec4; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let nw = dot(n, wo);
+fn frames(n: &Wide3, wo: &Wide3) -> ([Wide3; 3], Wide) {
+    // Products summed left to right, unfused, as glam's `Vec3::dot`.
+    let nw = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
     let t = [wo[0] - n[0] * nw, wo[1] - n[1] * nw, wo[2] - n[2] * nw];
-    let l2 = dot(&t, &t);
+    let l2 = t[0] * t[0] + t[1] * t[1] + t[2] * t[2];
     let len = l2.sqrt();
     let mut x = [t[0] / len, t[1] / len, t[2] / len];
     // As the scalar rule: `l2 > 1e-12` or the fallback (NaN included).
-    let tangent = l2.cmpgt(Vec4::splat(1e-12));
-    for l in 0..HALF {
-        if !tangent.test(l) {
-            let f = Vec3::new(n[0][l], n[1][l], n[2][l]).any_orthonormal_vector();
-            (x[0][l], x[1][l], x[2][l]) = (f.x, f.y, f.z);
+    let tangent = l2.gt(Wide::splat(1e-12f32));
+    if tangent.invert().any() {
+        for l in 0..LANES {
+            if !tangent.lane(l) {
+                let f = Vec3::new(n[0].0[l], n[1].0[l], n[2].0[l]).any_orthonormal_vector();
+                (x[0].0[l], x[1].0[l], x[2].0[l]) = (f.x, f.y, f.z);
+            }
         }
     }
     // `n.cross(x)` as glam writes it.
@@ -1213,17 +1299,14 @@ mod tests {
             (n(0.3, 0.3), Vec3::new(0.0, 1.0, 0.0)),
             (n(-0.6, 0.1), Vec3::new(0.2, -0.1, 0.97).normalize()),
         ];
-        for group in cases.chunks(HALF) {
-            let v4 = |f: &dyn Fn(usize) -> f32| Vec4::from_array(std::array::from_fn(f));
-            let ns = [0, 1, 2].map(|k| v4(&|l| group[l].0[k]));
-            let wos = [0, 1, 2].map(|k| v4(&|l| group[l].1[k]));
-            let (rows, cos_v) = frames(&ns, &wos);
-            for (l, &(n, wo)) in group.iter().enumerate() {
-                let want = ShadingBasis::from_normal_view(n, wo);
-                let got = rows.map(|r| Vec3::new(r[0][l], r[1][l], r[2][l]));
-                assert_eq!(got, [want.x, want.y, want.z], "n {n}, wo {wo}");
-                assert_eq!(cos_v[l].to_bits(), n.dot(wo).to_bits(), "n {n}, wo {wo}");
-            }
+        let ns = [0, 1, 2].map(|k| Wide::from_fn(|l| cases[l].0[k]));
+        let wos = [0, 1, 2].map(|k| Wide::from_fn(|l| cases[l].1[k]));
+        let (rows, cos_v) = frames(&ns, &wos);
+        for (l, &(n, wo)) in cases.iter().enumerate() {
+            let want = ShadingBasis::from_normal_view(n, wo);
+            let got = rows.map(|r| Vec3::new(r[0].0[l], r[1].0[l], r[2].0[l]));
+            assert_eq!(got, [want.x, want.y, want.z], "n {n}, wo {wo}");
+            assert_eq!(cos_v.0[l].to_bits(), n.dot(wo).to_bits(), "n {n}, wo {wo}");
         }
     }
 }

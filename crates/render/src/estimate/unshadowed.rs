@@ -105,6 +105,7 @@ pub fn analytic_u_band(
             tile.gather(gbuf, row_len, (r0, (r0 + CULL_ROWS).min(rows)), x0);
             if !tile.points.is_empty() {
                 tile.shade(world, tolerance, &mut out, &mut counts);
+                tile.write(&mut out);
             }
         }
     }
@@ -123,16 +124,8 @@ struct TileOut<'a> {
     lights: usize,
 }
 
-impl TileOut<'_> {
-    #[inline]
-    fn add(&mut self, k: usize, light: usize, d: Vec3, s: Vec3) {
-        self.per_light[k * self.lights + light] = d + s;
-        self.u[k] += d + s;
-        self.spec_share[k] += luminance(s);
-    }
-}
-
-/// Up to `LANES` pixels of a row, as the batched path reads them.
+/// Up to `LANES` pixels of a row, as the batched path reads them, and
+/// their sums over the lights so far, lane by lane.
 struct Run {
     /// Its first pixel in the band.
     k0: usize,
@@ -142,12 +135,75 @@ struct Run {
     /// Bit `l`: lane `l` holds a surface point.
     surface: u32,
     batch: PixelBatch,
+    /// `U` so far, per channel, and its specular part's luminance (0 in
+    /// lanes without a surface point).
+    u: [[f32; LANES]; 3],
+    spec: [f32; LANES],
+    /// The luminance of `U` so far (the culling's and the shape
+    /// correction's measure; summed light by light).
+    kept: [f32; LANES],
 }
 
 impl Run {
+    fn new() -> Run {
+        Run {
+            k0: 0,
+            first: 0,
+            count: 0,
+            surface: 0,
+            batch: PixelBatch::blank(),
+            u: [[0.0; LANES]; 3],
+            spec: [0.0; LANES],
+            kept: [0.0; LANES],
+        }
+    }
+
     /// The tile's point index and the lane of each surface point.
-    fn lanes(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        (self.first..).zip((0..LANES).filter(|&l| self.surface & (1 << l) != 0))
+    fn lanes(&self) -> impl Iterator<Item = (usize, usize)> + use<> {
+        let surface = self.surface;
+        (self.first..).zip((0..LANES).filter(move |&l| surface & (1 << l) != 0))
+    }
+
+    /// Adds light `light`'s Lambert lobe `d` (its GGX lobe left out) at
+    /// lane `l`.
+    #[inline]
+    fn add_diffuse(&mut self, out: &mut TileOut, l: usize, light: usize, d: Vec3) {
+        let s = Vec3::ZERO;
+        let total = d + s;
+        out.per_light[(self.k0 + l) * out.lights + light] = total;
+        for (c, u) in self.u.iter_mut().enumerate() {
+            u[l] += total[c];
+        }
+        self.spec[l] += luminance(s);
+        self.kept[l] += luminance(d);
+    }
+
+    /// Adds one light's lobes of every lane (zero in lanes without a
+    /// surface point, which stay 0).
+    #[inline]
+    fn add_lanes(&mut self, out: &mut TileOut, light: usize, lobes: &LaneLobes) {
+        let mut total = [[0.0f32; LANES]; 3];
+        for (c, (total, u)) in total.iter_mut().zip(&mut self.u).enumerate() {
+            for (l, (t, u)) in total.iter_mut().zip(u.iter_mut()).enumerate() {
+                *t = lobes.diffuse[c][l] + lobes.specular[c][l];
+                *u += *t;
+            }
+        }
+        for (l, (spec, kept)) in self.spec.iter_mut().zip(&mut self.kept).enumerate() {
+            let s = Vec3::new(
+                lobes.specular[0][l],
+                lobes.specular[1][l],
+                lobes.specular[2][l],
+            );
+            let t = Vec3::new(total[0][l], total[1][l], total[2][l]);
+            *spec += luminance(s);
+            *kept += luminance(t);
+        }
+        let lights = out.lights;
+        for (_, l) in self.lanes() {
+            out.per_light[(self.k0 + l) * lights + light] =
+                Vec3::new(total[0][l], total[1][l], total[2][l]);
+        }
     }
 }
 
@@ -156,18 +212,17 @@ impl Run {
 /// its light loop; reused from tile to tile.
 #[derive(Default)]
 struct Tile {
-    /// The runs of up to `LANES` pixels of a row that hold surface points.
+    /// The runs of up to `LANES` pixels of a row that hold surface points:
+    /// the first `live` (slots past them are kept for their storage, the
+    /// batches being built in place).
     runs: Vec<Run>,
+    live: usize,
     points: Vec<SurfacePoint>,
-    /// The pixel of each point.
-    pixels: Vec<usize>,
     wide: WidePoints,
     form_factors: Vec<f32>,
     order: Vec<(usize, LobeBound)>,
     /// `rest[j]`: the bounds of the lights from `order[j]` on.
     rest: Vec<f32>,
-    /// `U` so far at each point (luminance).
-    kept: Vec<f32>,
     /// What the lobes left out at each point may cost (luminance).
     spent: Vec<f32>,
     /// Per point, the bound on one far light's GGX lobe.
@@ -181,9 +236,8 @@ struct Tile {
 impl Tile {
     /// The surface pixels of rows `rows` and columns `x0..x0 + CULL_COLUMNS`.
     fn gather(&mut self, gbuf: &[GSample], row_len: usize, rows: (usize, usize), x0: usize) {
-        self.runs.clear();
+        self.live = 0;
         self.points.clear();
-        self.pixels.clear();
         for r in rows.0..rows.1 {
             let row = r * row_len;
             for c0 in (x0..(x0 + CULL_COLUMNS).min(row_len)).step_by(LANES) {
@@ -192,31 +246,49 @@ impl Tile {
                     break;
                 }
                 let len = LANES.min(row_len - c0).min(gbuf.len() - k0);
-                let lane: [Option<SurfacePoint>; LANES] = std::array::from_fn(|l| {
-                    (l < len)
-                        .then(|| &gbuf[k0 + l])
-                        .filter(|g| g.kind == PixelKind::Surface)
-                        .map(surface_point)
-                });
-                if lane.iter().all(Option::is_none) {
-                    continue;
-                }
                 let first = self.points.len();
                 let mut surface = 0;
-                for (l, sp) in lane.iter().enumerate() {
-                    if let Some(sp) = sp {
-                        self.points.push(*sp);
-                        self.pixels.push(k0 + l);
+                for (l, g) in gbuf[k0..k0 + len].iter().enumerate() {
+                    if g.kind == PixelKind::Surface {
+                        self.points.push(surface_point(g));
                         surface |= 1 << l;
                     }
                 }
-                self.runs.push(Run {
-                    k0,
-                    first,
-                    count: self.points.len() - first,
-                    surface,
-                    batch: PixelBatch::new(&lane),
-                });
+                if surface == 0 {
+                    continue;
+                }
+                if self.live == self.runs.len() {
+                    self.runs.push(Run::new());
+                }
+                let run = &mut self.runs[self.live];
+                self.live += 1;
+                let points = &self.points[first..];
+                let mut lanes = [None; LANES];
+                let mut next = points.iter();
+                for (l, lane) in lanes.iter_mut().enumerate() {
+                    if surface & (1 << l) != 0 {
+                        *lane = next.next();
+                    }
+                }
+                run.batch.set(lanes);
+                run.k0 = k0;
+                run.first = first;
+                run.count = points.len();
+                run.surface = surface;
+                run.u = [[0.0; LANES]; 3];
+                run.spec = [0.0; LANES];
+                run.kept = [0.0; LANES];
+            }
+        }
+    }
+
+    /// The tile's `U`, and its specular part's luminance, into `out`.
+    fn write(&self, out: &mut TileOut) {
+        for run in &self.runs[..self.live] {
+            for (_, l) in run.lanes() {
+                let k = run.k0 + l;
+                out.u[k] = Vec3::new(run.u[0][l], run.u[1][l], run.u[2][l]);
+                out.spec_share[k] = run.spec[l];
             }
         }
     }
@@ -248,6 +320,23 @@ impl Tile {
             .then(|| PointGroup::new(&self.points))
             .flatten();
         let tolerance = if group.is_some() { tolerance } else { 0.0 };
+        let count = self.points.len();
+        let runs = &mut self.runs[..self.live];
+        if group.is_none() {
+            // Every light at every point, no bounds to keep.
+            let mut lobes = LaneLobes::default();
+            for (i, light) in lights.iter().enumerate() {
+                for run in runs.iter_mut() {
+                    run.batch.set_others(run.kept);
+                    let c = lobes_batch(&run.batch, light, &mut lobes);
+                    counts.lanes.fast += c.fast;
+                    counts.lanes.scalar += c.scalar;
+                    run.add_lanes(out, i, &lobes);
+                }
+            }
+            counts.full += (n * count) as u64;
+            return;
+        }
         self.order.clear();
         match &group {
             Some(g) => {
@@ -265,9 +354,6 @@ impl Tile {
         for j in (0..n).rev() {
             self.rest[j] = self.rest[j + 1] + self.order[j].1.total();
         }
-        let count = self.points.len();
-        self.kept.clear();
-        self.kept.resize(count, 0.0);
         self.spent.clear();
         self.spent.resize(count, 0.0);
         let has_ggx = self.points.iter().any(|sp| sp.specular.max_element() > 0.0);
@@ -320,13 +406,12 @@ impl Tile {
             // computed: a far light's wide Lambert values only where some run
             // takes them; the other runs take the f64 batch (clipped).
             self.leave_out.clear();
-            for run in &self.runs {
-                let points = run.first..run.first + run.count;
+            for run in &self.runs[..self.live] {
                 let leave = tile_drop
                     || (far.is_some() && !has_ggx)
                     || (per_point
-                        && points.clone().all(|q| {
-                            self.spent[q] + cost(q) <= GGX_SHARE * tolerance * self.kept[q]
+                        && run.lanes().all(|(q, l)| {
+                            self.spent[q] + cost(q) <= GGX_SHARE * tolerance * run.kept[l]
                         }));
                 self.leave_out.push(leave);
             }
@@ -335,24 +420,19 @@ impl Tile {
                 form_factors(&self.wide, &light.vertices, &mut self.form_factors);
             }
             let mut lobes = LaneLobes::default();
-            for (run, &leave) in self.runs.iter_mut().zip(&self.leave_out) {
+            for (run, &leave) in self.runs[..self.live].iter_mut().zip(&self.leave_out) {
                 let points = run.count as u64;
                 if leave && wide {
-                    for q in run.first..run.first + run.count {
+                    for (q, l) in run.lanes() {
                         let d = self.points[q].diffuse * light.radiance * self.form_factors[q];
-                        out.add(self.pixels[q], i, d, Vec3::ZERO);
-                        self.kept[q] += luminance(d);
+                        run.add_diffuse(out, l, i, d);
                         self.spent[q] += cost(q);
                     }
                     counts.diffuse_only += points;
                     counts.lambert_wide += points;
                     continue;
                 }
-                let mut others = [0.0; LANES];
-                for (q, l) in run.lanes() {
-                    others[l] = self.kept[q];
-                }
-                run.batch.set_others(others);
+                run.batch.set_others(run.kept);
                 let c = if leave {
                     diffuse_batch(&run.batch, &lights[i], &mut lobes)
                 } else {
@@ -360,21 +440,20 @@ impl Tile {
                 };
                 counts.lanes.fast += c.fast;
                 counts.lanes.scalar += c.scalar;
-                for (q, l) in run.lanes() {
-                    let (d, s) = lobes.lane(l);
-                    out.add(run.k0 + l, i, d, s);
-                    self.kept[q] += luminance(d + s);
-                    if leave {
+                run.add_lanes(out, i, &lobes);
+                if leave {
+                    for (q, _) in run.lanes() {
                         self.spent[q] += cost(q);
                     }
-                }
-                if leave {
                     counts.diffuse_only += points;
                 } else {
                     counts.full += points;
                 }
             }
-            smallest = self.kept.iter().fold(f32::INFINITY, |a, &b| a.min(b));
+            smallest = self.runs[..self.live]
+                .iter()
+                .flat_map(|run| run.lanes().map(|(_, l)| run.kept[l]))
+                .fold(f32::INFINITY, |a, b| a.min(b));
             most_spent = self.spent.iter().fold(0.0f32, |a, &b| a.max(b));
         }
         counts.culled += (n - evaluated) as u64 * count as u64;
