@@ -168,13 +168,10 @@ impl Run {
     /// lane `l`.
     #[inline]
     fn add_diffuse(&mut self, out: &mut TileOut, l: usize, light: usize, d: Vec3) {
-        let s = Vec3::ZERO;
-        let total = d + s;
-        out.per_light[(self.k0 + l) * out.lights + light] = total;
+        out.per_light[(self.k0 + l) * out.lights + light] = d;
         for (c, u) in self.u.iter_mut().enumerate() {
-            u[l] += total[c];
+            u[l] += d[c];
         }
-        self.spec[l] += luminance(s);
         self.kept[l] += luminance(d);
     }
 
@@ -316,17 +313,15 @@ impl Tile {
         let lights = world.lights.batch();
         let extents = world.lights.extents();
         let n = lights.len();
+        let count = self.points.len();
         let group = (tolerance > 0.0 && n >= CULL_MIN_LIGHTS)
             .then(|| PointGroup::new(&self.points))
             .flatten();
-        let tolerance = if group.is_some() { tolerance } else { 0.0 };
-        let count = self.points.len();
-        let runs = &mut self.runs[..self.live];
-        if group.is_none() {
+        let Some(group) = group else {
             // Every light at every point, no bounds to keep.
             let mut lobes = LaneLobes::default();
             for (i, light) in lights.iter().enumerate() {
-                for run in runs.iter_mut() {
+                for run in self.runs[..self.live].iter_mut() {
                     run.batch.set_others(run.kept);
                     let c = lobes_batch(&run.batch, light, &mut lobes);
                     counts.lanes.fast += c.fast;
@@ -336,17 +331,12 @@ impl Tile {
             }
             counts.full += (n * count) as u64;
             return;
-        }
+        };
         self.order.clear();
-        match &group {
-            Some(g) => {
-                self.order
-                    .extend(extents.iter().map(|e| g.bound(e)).enumerate());
-                self.order
-                    .sort_unstable_by(|a, b| b.1.total().total_cmp(&a.1.total()));
-            }
-            None => self.order.extend((0..n).map(|i| (i, LobeBound::NONE))),
-        }
+        self.order
+            .extend(extents.iter().map(|e| group.bound(e)).enumerate());
+        self.order
+            .sort_unstable_by(|a, b| b.1.total().total_cmp(&a.1.total()));
         // Summed from the smallest bound up, so no large bound is ever
         // subtracted from a small remainder.
         self.rest.clear();
@@ -365,32 +355,27 @@ impl Tile {
         for j in 0..n {
             let (i, bound) = self.order[j];
             let budget = tolerance * smallest;
-            if tolerance > 0.0 {
-                if self.rest[j] + most_spent <= budget {
-                    break;
-                }
-                if bound.total() == 0.0 {
-                    continue;
-                }
+            if self.rest[j] + most_spent <= budget {
+                break;
+            }
+            if bound.total() == 0.0 {
+                continue;
             }
             evaluated += 1;
             // The tile's bound may leave the GGX lobe out everywhere.
-            let tile_drop = tolerance > 0.0 && most_spent + bound.specular <= GGX_SHARE * budget;
+            let tile_drop = most_spent + bound.specular <= GGX_SHARE * budget;
             let light = &world.lights.declared()[i];
-            let far = group.as_ref().and_then(|g| g.far_view(&extents[i]));
+            let far = group.far_view(&extents[i]);
             // Where the tile's bound cannot leave the GGX lobe out, each
             // point's own bound (it holds for any light) may, run by run.
-            let per_point = has_ggx && !tile_drop && group.is_some();
+            let per_point = has_ggx && !tile_drop;
             if far.is_some() || per_point {
                 self.prepare_wide();
             }
             if per_point {
                 ggx_bounds(&self.wide, &extents[i], &mut self.ggx);
             }
-            let rounding = match (&group, far) {
-                (Some(g), Some(view)) => bound_of_rounding(g.albedo(), light, view),
-                _ => 0.0,
-            };
+            let rounding = far.map_or(0.0, |view| bound_of_rounding(group.albedo(), light, view));
             let radiance = luminance(light.radiance);
             let cost = |q: usize| {
                 rounding
