@@ -297,22 +297,12 @@ impl PackedLtc {
 }
 
 impl PackedLtc {
-    /// `lookup_packed` of a batch's pixels (lane `l` = pixel `l`), field by
-    /// field: `out[f]` holds field `f` (`LtcCell::to_array` order, the 16th
-    /// 0) of every lane's cell. The cell coordinates are computed across
-    /// the lanes, each lane's blend runs over its 16 fields at once (two
-    /// 8-wide vectors at AVX2, where four `Vec4` took four), and the
-    /// blends are transposed into lanes once: the same cells bit for bit
-    /// for finite inputs (a test checks it; a NaN reads cell (0, 0) here).
-    #[inline(always)]
-    pub fn lookup_wide(&self, roughness: Wide, cos_view: Wide) -> [Wide; 16] {
-        let mut cells = [[0.0f32; 16]; LANES];
-        self.lookup_cells(roughness, cos_view, &mut cells);
-        std::array::from_fn(|f| Lanes(std::array::from_fn(|l| cells[l][f])))
-    }
-
     /// `lookup_packed` of a batch's pixels into `out[l]` (lane `l` = pixel
-    /// `l`), each cell's 16 values as `packed_fields` orders them.
+    /// `l`), each cell's 16 values as `packed_fields` orders them. The cell
+    /// coordinates are computed across the lanes and each lane's blend runs
+    /// over its 16 fields at once (two 8-wide vectors at AVX2, where four
+    /// `Vec4` took four): the same cells bit for bit for finite inputs (a
+    /// test checks it; a NaN reads cell (0, 0) here).
     #[inline(always)]
     pub fn lookup_cells(&self, roughness: Wide, cos_view: Wide, out: &mut [[f32; 16]; LANES]) {
         let n = Wide::splat((self.size - 1) as f32);
@@ -357,14 +347,7 @@ impl PackedLtc {
     }
 }
 
-/// A cell as `PackedLtc::lookup_packed` gives it.
-#[inline(always)]
-pub fn packed_cell(c: &LtcCell) -> [Vec4; 4] {
-    let a = packed_fields(c);
-    [0, 4, 8, 12].map(|k| Vec4::from_slice(&a[k..k + 4]))
-}
-
-/// A cell's fields as `PackedLtc::lookup_wide` gives each lane: in
+/// A cell's fields as `PackedLtc::lookup_cells` gives each lane: in
 /// `LtcCell::to_array` order, the 16th 0.
 #[inline(always)]
 pub fn packed_fields(c: &LtcCell) -> [f32; 16] {
@@ -493,12 +476,13 @@ mod tests {
         for i in 0..301 * 8 {
             let r = Wide::from_fn(|l| at(i + 37 * l));
             let c = Wide::from_fn(|l| at(i / 8 + 101 * l));
-            let lanes = p.lookup_wide(r, c);
-            for l in 0..LANES {
+            let mut cells = [[0.0f32; 16]; LANES];
+            p.lookup_cells(r, c, &mut cells);
+            for (l, cell) in cells.iter().enumerate() {
                 let want = p.lookup_packed(r.0[l], c.0[l]);
-                for (f, lane) in lanes.iter().enumerate() {
+                for (f, value) in cell.iter().enumerate() {
                     assert_eq!(
-                        lane.0[l].to_bits(),
+                        value.to_bits(),
                         want[f / 4][f % 4].to_bits(),
                         "{r:?} {c:?} lane {l} field {f}"
                     );
