@@ -178,54 +178,105 @@ impl Resolve {
         )
             .into_par_iter()
             .enumerate()
-            .for_each(|(y, (out_f, out_c, meta, mixed))| {
-                for x in 0..w {
-                    let i = y * w + x;
-                    let (f, c) = (sanitize(now_f[i]), sanitize(now_c[i]));
-                    let here = Pixel::of(guide, i);
-                    let hist = match motion {
-                        CameraMotion::Still => still_history(prev, i, &here, surface),
-                        CameraMotion::Moved if here.meta.depth > 0.0 && guide.prev_valid[i] => {
-                            reprojected(guide, prev, x, y, &here, surface).map(|mut r| {
-                                if settings.clamp {
-                                    r.factor = clamp_to_neighbourhood(r.factor, now_f, w, h, x, y);
-                                    r.color = clamp_to_neighbourhood(r.color, now_c, w, h, x, y);
-                                }
-                                r
-                            })
+            .for_each(|(y, (factor, color, meta, mixed))| {
+                let mut out = RowOut {
+                    factor,
+                    color,
+                    meta,
+                    mixed,
+                    cap,
+                };
+                let row = y * w;
+                let now = |x: usize| (sanitize(now_f[row + x]), sanitize(now_c[row + x]));
+                // One loop per motion: the still camera's, the common case,
+                // carries nothing of the reprojection.
+                match motion {
+                    CameraMotion::Still => {
+                        for x in 0..w {
+                            let here = Pixel::of(guide, row + x);
+                            let hist = still_history(prev, row + x, &here, surface);
+                            out.put(x, &here, now(x), hist);
                         }
-                        CameraMotion::Moved => None,
-                    };
-                    let r = match hist {
-                        Some(r) => {
-                            let len = (r.len + 1.0).min(cap);
-                            let a = 1.0 / len;
-                            Resolved {
-                                factor: r.factor + (f - r.factor) * a,
-                                color: r.color + (c - r.color) * a,
-                                len,
-                                mixed: r.mixed,
+                    }
+                    CameraMotion::Moved => {
+                        // The clamp's 3x3 ranges, slid along the row: each
+                        // column's range over three rows is taken once and
+                        // serves three pixels.
+                        let mut ranges = settings.clamp.then(|| {
+                            (
+                                RowRanges::new(now_f, w, h, y),
+                                RowRanges::new(now_c, w, h, y),
+                            )
+                        });
+                        for x in 0..w {
+                            let i = row + x;
+                            let here = Pixel::of(guide, i);
+                            let hist = (here.meta.depth > 0.0 && guide.prev_valid[i])
+                                .then(|| reprojected(guide, prev, x, y, &here, surface))
+                                .flatten()
+                                .map(|mut r| {
+                                    if let Some((rf, rc)) = &ranges {
+                                        r.factor = rf.clamp(r.factor);
+                                        r.color = rc.clamp(r.color);
+                                    }
+                                    r
+                                });
+                            if let Some((rf, rc)) = &mut ranges {
+                                rf.advance();
+                                rc.advance();
                             }
+                            out.put(x, &here, now(x), hist);
                         }
-                        None => Resolved {
-                            factor: f,
-                            color: c,
-                            len: 1.0,
-                            mixed: false,
-                        },
-                    };
-                    out_f[x] = r.factor;
-                    out_c[x] = r.color;
-                    mixed[x] = r.mixed;
-                    meta[x] = Meta {
-                        len: r.len,
-                        ..here.meta
-                    };
+                    }
                 }
             });
         factor.copy_from_slice(&self.cur.factor);
         color.copy_from_slice(&self.cur.color);
         std::mem::swap(&mut self.prev, &mut self.cur);
+    }
+}
+
+/// One row of the resolve's output: the resolved signals and the record
+/// the next frame validates them with.
+struct RowOut<'a> {
+    factor: &'a mut [Vec3],
+    color: &'a mut [Vec3],
+    meta: &'a mut [Meta],
+    mixed: &'a mut [bool],
+    /// History length cap.
+    cap: f32,
+}
+
+impl RowOut<'_> {
+    /// Blends this frame's `(factor, color)` of pixel `x` into its history
+    /// (if any) and writes the result.
+    #[inline(always)]
+    fn put(&mut self, x: usize, here: &Pixel, (f, c): (Vec3, Vec3), hist: Option<Resolved>) {
+        let r = match hist {
+            Some(r) => {
+                let len = (r.len + 1.0).min(self.cap);
+                let a = 1.0 / len;
+                Resolved {
+                    factor: r.factor + (f - r.factor) * a,
+                    color: r.color + (c - r.color) * a,
+                    len,
+                    mixed: r.mixed,
+                }
+            }
+            None => Resolved {
+                factor: f,
+                color: c,
+                len: 1.0,
+                mixed: false,
+            },
+        };
+        self.factor[x] = r.factor;
+        self.color[x] = r.color;
+        self.mixed[x] = r.mixed;
+        self.meta[x] = Meta {
+            len: r.len,
+            ..here.meta
+        };
     }
 }
 
@@ -343,25 +394,84 @@ fn reprojected(
     })
 }
 
-/// Clamps `c` per channel to the range of the current frame's colours in
-/// the 3x3 neighbourhood of (x, y): history the current frame cannot
-/// explain (a surface that was not there, light that left) is cut back.
-#[inline]
-pub(super) fn clamp_to_neighbourhood(
-    c: Vec3,
-    now: &[Vec3],
+/// The range, per channel, of the current frame's sanitized values in the
+/// 3x3 neighbourhood of each pixel of one row, for clamping its history:
+/// history the current frame cannot explain (a surface that was not there,
+/// light that left) is cut back. The row is walked left to right; each
+/// column's range over its three rows is computed once and kept for the
+/// two pixels after it.
+struct RowRanges<'a> {
+    now: &'a [Vec3],
     w: usize,
-    h: usize,
+    /// The rows above and below within the frame, as offsets of the row.
+    rows: [Option<usize>; 2],
+    row: usize,
+    /// The pixel the walk is at.
     x: usize,
-    y: usize,
-) -> Vec3 {
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for ny in y.saturating_sub(1)..(y + 2).min(h) {
-        for nx in x.saturating_sub(1)..(x + 2).min(w) {
-            let v = sanitize(now[ny * w + nx]);
+    /// The ranges of the columns left of, at and right of the pixel.
+    left: Option<Range>,
+    here: Range,
+    right: Option<Range>,
+}
+
+#[derive(Clone, Copy, Default)]
+struct Range {
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl<'a> RowRanges<'a> {
+    fn new(now: &'a [Vec3], w: usize, h: usize, y: usize) -> RowRanges<'a> {
+        let row = y * w;
+        let mut r = RowRanges {
+            now,
+            w,
+            rows: [(y > 0).then(|| row - w), (y + 1 < h).then_some(row + w)],
+            row,
+            x: 0,
+            left: None,
+            here: Range::default(),
+            right: None,
+        };
+        if w > 0 {
+            r.here = r.column(0);
+            r.right = (w > 1).then(|| r.column(1));
+        }
+        r
+    }
+
+    #[inline(always)]
+    fn column(&self, x: usize) -> Range {
+        let centre = sanitize(self.now[self.row + x]);
+        let (mut lo, mut hi) = (centre, centre);
+        for r in self.rows.into_iter().flatten() {
+            let v = sanitize(self.now[r + x]);
             lo = lo.min(v);
             hi = hi.max(v);
         }
+        Range { lo, hi }
     }
-    c.clamp(lo, hi)
+
+    /// `c` clamped to the range of the 3x3 neighbourhood of the pixel the
+    /// walk is at.
+    #[inline(always)]
+    fn clamp(&self, c: Vec3) -> Vec3 {
+        let (mut lo, mut hi) = (self.here.lo, self.here.hi);
+        for r in [self.left, self.right].into_iter().flatten() {
+            lo = lo.min(r.lo);
+            hi = hi.max(r.hi);
+        }
+        c.clamp(lo, hi)
+    }
+
+    /// Moves the walk one pixel right.
+    #[inline(always)]
+    fn advance(&mut self) {
+        self.x += 1;
+        if let Some(r) = self.right {
+            self.left = Some(self.here);
+            self.here = r;
+            self.right = (self.x + 1 < self.w).then(|| self.column(self.x + 1));
+        }
+    }
 }

@@ -422,6 +422,11 @@ fn reproject_lanes(
             let (cx, cy) = if inside[l] { (tx, ty) } else { (0, 0) };
             j[l] = cy as usize * w as usize + cx as usize;
         }
+        // A tap no lane reads (a still camera reprojects onto whole
+        // pixels: one tap of four) would add only zeros.
+        if !inside.iter().any(|&b| b) {
+            continue;
+        }
         // The records of the taps, per lane.
         let mut f = [[0.0f32; LANES]; 17];
         for l in 0..LANES {

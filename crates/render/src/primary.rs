@@ -120,6 +120,7 @@ fn trace_packets(
         |i: u32| (2.0 * (i as f32 + o.x) / cam.width as f32 - 1.0) * cam.tan_half * cam.aspect;
     let plane_y = |j: u32| (1.0 - 2.0 * (j as f32 + o.y) / cam.height as f32) * cam.tan_half;
     let shared = matches!(offset, PixelOffset::Centre | PixelOffset::Frame(_));
+    let still = cam == prev;
     for py in (0..rows).step_by(PACKET_H as usize) {
         let ys: [f32; PACKET_H as usize] = std::array::from_fn(|k| plane_y(y0 + py + k as u32));
         for px in (0..width).step_by(PACKET_W as usize) {
@@ -185,11 +186,15 @@ fn trace_packets(
                         sample,
                     );
                 }
-                if let PixelOffset::Frame(o) = offset {
+                if still && sample.prev_valid {
+                    // A still camera moves nothing: every pixel reprojects
+                    // exactly onto itself (the projection's rounding would
+                    // spread each history tap over four), whatever the jitter.
+                    sample.prev_pixel = Vec2::new(i as f32 + 0.5, (y0 + r) as f32 + 0.5);
+                } else if let PixelOffset::Frame(o) = offset {
                     // Motion vectors of the unjittered camera: the point seen
                     // at (i + o) moved by prev_pixel - (i + o), and that motion
-                    // starts from the pixel centre, so a still camera
-                    // reprojects every pixel onto itself whatever the jitter.
+                    // starts from the pixel centre.
                     if sample.prev_valid {
                         sample.prev_pixel -= o - Vec2::splat(0.5);
                     }

@@ -11,7 +11,7 @@ pub struct Camera {
 }
 
 /// The camera's orthonormal frame and image-plane scale, precomputed once a frame.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraFrame {
     pub eye: Vec3,
     pub forward: Vec3,
