@@ -51,6 +51,9 @@ pub struct GSample {
 
 /// Resolves an Embree hit into the G-buffer sample `out`, written in place
 /// (inlined into the per-ISA primary kernel, `primary::trace_rows`).
+/// `prev` is the previous frame's camera, for the motion vector; `None`
+/// where the camera did not move (the hit's history is its own pixel's,
+/// which the caller writes).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn resolve_hit(
@@ -61,7 +64,7 @@ pub fn resolve_hit(
     b2: f32,
     t: f32,
     dir: Vec3,
-    prev: &CameraFrame,
+    prev: Option<&CameraFrame>,
     out: &mut GSample,
 ) {
     let Some(geom) = world.geom(geom_id) else {
@@ -203,9 +206,14 @@ fn apply_normal_map(ns: Vec3, dpds: Vec3, dpdt: Vec3, local: Vec3) -> Vec3 {
 }
 
 #[inline]
-fn set_motion(s: &mut GSample, prev: &CameraFrame) {
-    if let Some((x, y)) = prev.project(s.position) {
-        s.prev_pixel = Vec2::new(x, y);
-        s.prev_valid = true;
+fn set_motion(s: &mut GSample, prev: Option<&CameraFrame>) {
+    match prev {
+        Some(prev) => {
+            if let Some((x, y)) = prev.project(s.position) {
+                s.prev_pixel = Vec2::new(x, y);
+                s.prev_valid = true;
+            }
+        }
+        None => s.prev_valid = true,
     }
 }

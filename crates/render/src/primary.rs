@@ -182,7 +182,7 @@ fn trace_packets(
                         hits.v[lane],
                         hits.t[lane],
                         dir,
-                        prev,
+                        (!still).then_some(prev),
                         sample,
                     );
                 }
