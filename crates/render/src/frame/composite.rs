@@ -90,16 +90,18 @@ impl Frame {
         (
             self.color.par_chunks_mut(JOB),
             self.gbuf.par_chunks(JOB),
+            self.guide.depth.par_chunks(JOB),
             self.u.par_chunks(JOB),
             self.un.par_chunks(JOB),
             self.sn.par_chunks(JOB),
         )
             .into_par_iter()
-            .for_each(|(color, gbuf, u, un, sn)| {
+            .for_each(|(color, gbuf, depth, u, un, sn)| {
                 isa::run(Compose {
                     composite,
                     color,
                     gbuf,
+                    depth,
                     u,
                     un,
                     sn,
@@ -147,6 +149,8 @@ struct Compose<'a> {
     composite: Composite,
     color: &'a mut [Vec3],
     gbuf: &'a [GSample],
+    /// The guides' depth: positive on the surfaces, whose emission is 0.
+    depth: &'a [f32],
     u: &'a [Vec3],
     un: &'a [Vec3],
     sn: &'a [Vec3],
@@ -160,6 +164,7 @@ impl Kernel for Compose<'_> {
             composite,
             color,
             gbuf,
+            depth,
             u,
             un,
             sn,
@@ -170,13 +175,23 @@ impl Kernel for Compose<'_> {
         let n = color
             .len()
             .min(gbuf.len())
+            .min(depth.len())
             .min(u.len())
             .min(un.len())
             .min(sn.len());
         for i0 in (0..n).step_by(LANES) {
             let m = LANES.min(n - i0);
-            for (k, g) in gbuf[i0..i0 + m].iter().enumerate() {
-                [e[0][k], e[1][k], e[2][k]] = g.emission.to_array();
+            // Only lights and misses are read from the G-buffer: a record
+            // is over a hundred bytes, three times what this pass reads
+            // of a pixel otherwise, and at the frame's size it comes from
+            // memory.
+            for (k, &d) in depth[i0..i0 + m].iter().enumerate() {
+                let emission = if d > 0.0 {
+                    Vec3::ZERO
+                } else {
+                    gbuf[i0 + k].emission
+                };
+                [e[0][k], e[1][k], e[2][k]] = emission.to_array();
             }
             load(&u[i0..i0 + m], &mut lu);
             load(&un[i0..i0 + m], &mut lun);
