@@ -686,12 +686,19 @@ impl Ctx<'_> {
                 let (ddx, ddy, ddz) = (gl(PX) - px, gl(PY) - py, gl(PZ) - pz);
                 let dn = nx * ddx + ny * ddy + nz * ddz;
                 let d2 = ddx * ddx + ddy * ddy + ddz * ddz;
-                let e_plane = dn * dn * self.inv_plane2 / (d2 + 1e-30);
-                let nd = nx * gl(NX) + ny * gl(NY) + nz * gl(NZ);
-                let e_normal = (V::splat(1.0) - nd).max(zero) * self.normal_power;
                 let big = lu.max(ql);
                 let ok_u = big.gt(V::splat(1e-30));
-                let e_u = (lu - ql).abs() * self.inv_u / ok_u.select(big, V::splat(1.0));
+                // The plane's and `U`'s quotients over one division (the
+                // tap loop's costliest instruction): `a / p` and `b / q`
+                // as `a q r` and `b p r` with `r = 1 / (p q)`. The product
+                // is kept off zero; then `r p q <= 1`, and as `dn² <= d2`
+                // the plane term stays within `inv_plane2`.
+                let (p, q) = (d2 + 1e-30, ok_u.select(big, V::splat(1.0)));
+                let r = V::splat(1.0) / (p * q).max(V::splat(f32::MIN_POSITIVE));
+                let e_plane = dn * dn * self.inv_plane2 * (q * r);
+                let nd = nx * gl(NX) + ny * gl(NY) + nz * gl(NZ);
+                let e_normal = (V::splat(1.0) - nd).max(zero) * self.normal_power;
+                let e_u = (lu - ql).abs() * self.inv_u * (p * r);
                 let e_u = ok_u.select(e_u, zero);
                 let e_r = (rp - sl(signal::RATIO)).abs() * inv_sig;
                 // Sharp shadows seen through a narrow specular lobe.
