@@ -166,7 +166,6 @@ impl Resolve {
         if n == 0 {
             return;
         }
-        let (now_f, now_c): (&[Vec3], &[Vec3]) = (factor, color);
         let prev = &self.prev;
         let cap = match motion {
             CameraMotion::Still => settings.max_history_still,
@@ -176,40 +175,54 @@ impl Resolve {
         let cur = &mut self.cur;
         // Without a resolved frame every tap would fail its test.
         let motion = if self.has_history { Some(motion) } else { None };
-        (
+        let rows = (
             cur.factor.par_chunks_mut(w),
             cur.color.par_chunks_mut(w),
             cur.meta.par_chunks_mut(w),
             cur.mixed.par_chunks_mut(w),
-        )
-            .into_par_iter()
-            .enumerate()
-            .for_each(|(y, (factor, color, meta, mixed))| {
-                let mut out = RowOut {
-                    factor,
-                    color,
-                    meta,
-                    mixed,
-                    cap,
-                };
-                let row = y * w;
-                let now = |x: usize| (sanitize(now_f[row + x]), sanitize(now_c[row + x]));
-                // One loop per motion: the still camera's, the common case,
-                // carries nothing of the reprojection.
-                match motion {
-                    None => {
-                        for x in 0..w {
-                            out.put(x, &Pixel::of(guide, row + x), now(x), None);
-                        }
-                    }
-                    Some(CameraMotion::Still) => {
+        );
+        match motion {
+            // A pixel that reads only its own input writes its result over
+            // it, while the row is in cache: copying the resolved frame out
+            // afterwards would move both signals through memory once more.
+            None | Some(CameraMotion::Still) => {
+                (rows, factor.par_chunks_mut(w), color.par_chunks_mut(w))
+                    .into_par_iter()
+                    .enumerate()
+                    .for_each(|(y, ((f, c, meta, mixed), now_f, now_c))| {
+                        let mut out = RowOut {
+                            factor: f,
+                            color: c,
+                            meta,
+                            mixed,
+                            cap,
+                        };
+                        let row = y * w;
                         for x in 0..w {
                             let here = Pixel::of(guide, row + x);
-                            let hist = still_history(prev, row + x, &here, surface);
-                            out.put(x, &here, now(x), hist);
+                            let hist = match motion {
+                                None => None,
+                                _ => still_history(prev, row + x, &here, surface),
+                            };
+                            let now = (sanitize(now_f[x]), sanitize(now_c[x]));
+                            out.put(x, &here, now, hist);
+                            (now_f[x], now_c[x]) = (out.factor[x], out.color[x]);
                         }
-                    }
-                    Some(CameraMotion::Moved) => {
+                    });
+            }
+            Some(CameraMotion::Moved) => {
+                let (now_f, now_c): (&[Vec3], &[Vec3]) = (factor, color);
+                rows.into_par_iter()
+                    .enumerate()
+                    .for_each(|(y, (factor, color, meta, mixed))| {
+                        let mut out = RowOut {
+                            factor,
+                            color,
+                            meta,
+                            mixed,
+                            cap,
+                        };
+                        let row = y * w;
                         // The clamp's 3x3 ranges, slid along the row: each
                         // column's range over three rows is taken once and
                         // serves three pixels.
@@ -236,13 +249,14 @@ impl Resolve {
                                 rf.advance();
                                 rc.advance();
                             }
-                            out.put(x, &here, now(x), hist);
+                            let now = (sanitize(now_f[i]), sanitize(now_c[i]));
+                            out.put(x, &here, now, hist);
                         }
-                    }
-                }
-            });
-        factor.copy_from_slice(&self.cur.factor);
-        color.copy_from_slice(&self.cur.color);
+                    });
+                factor.copy_from_slice(&self.cur.factor);
+                color.copy_from_slice(&self.cur.color);
+            }
+        }
         std::mem::swap(&mut self.prev, &mut self.cur);
         self.has_history = true;
     }
