@@ -6,7 +6,7 @@ BIN := target/release/penumbra
 # `penumbra bench --plot`; valgrind: `make memcheck`; the build needs neither).
 APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
 
-.PHONY: run test test-embree4 deps build lint bench bench-quick profile fit-ltc clean fuzz memcheck longrun golden-bless peer-denoise
+.PHONY: run test test-embree4 deps build lint bench bench-quick profile profile-wall fit-ltc clean fuzz memcheck longrun golden-bless peer-denoise
 
 # No target CPU is forced: one build runs on any x86-64 CPU, and its hot
 # loops pick AVX-512, AVX2 or baseline at run time (crates/isa/src/lib.rs;
@@ -76,6 +76,18 @@ profile: build
 	  --threads 1 --frames $(PROFILE_FRAMES) --orbit 1 --out target/profile/frame.exr
 	scripts/profile.py target/profile/callgrind.out $$(($(PROFILE_WIDTH) * $(PROFILE_HEIGHT))) \
 	  $(PROFILE_FRAMES) --json target/profile/profile.json
+
+# Where the time goes, kernel by kernel: perf samples of a full-size render
+# at this CPU's own level, each attributed to the line that opened its
+# kernel by scripts/wall_profile.py (docs/performance.md, "The wall clock,
+# kernel by kernel"). What `profile` cannot see: time spent waiting.
+WALL_FRAMES := 12
+profile-wall: build
+	@command -v perf >/dev/null || { echo "profile-wall needs perf: apt-get install linux-perf"; exit 1; }
+	mkdir -p target/profile
+	perf record -F 2000 -o target/profile/perf.data $(BIN) render $(PROFILE_SCENE) \
+	  --frames $(WALL_FRAMES) --out target/profile/wall.exr
+	scripts/wall_profile.py target/profile/perf.data $(BIN)
 
 # The denoiser beside Open Image Denoise on penumbra's own raw 1-spp frames
 # (albedo and normal AOVs as its guides): relMSE, speckles and ms on room,
