@@ -8,20 +8,21 @@ Usage: scripts/wall_profile.py PERF_DATA BINARY [--top N]
 same on every run, but blind to what an instruction waits for (a pass that
 streams memory counts few instructions and takes long) and to the wider
 level this CPU may run. This samples the real run instead, at the level the
-binary picks, and attributes each sample of the binary to the line that
-opened its kernel: the hot loops run through `penumbra_isa::run`, whose
-per-level clones all share one name, so the name of the function a sample
-lands in says little; its inlined frames do. For a sample under
-`crates/isa/src/lib.rs`, the site is the frame just inside it (the kernel's
-`run` body, e.g. `spatial.rs` for the à-trous levels); elsewhere the
-outermost frame of the project's code. Samples outside the binary are
-counted by shared object (Embree, libc, the kernel).
+binary picks. Samples are grouped by the function they land in: the hot
+loops run through `penumbra_isa::run`, whose per-level clones are
+functions of their own but all share one name, so each function is named
+by the most common site of its samples, found in their inlined frames: the
+frame just inside `crates/isa/src/lib.rs` (the kernel's `run` body, e.g.
+`spatial.rs` for the à-trous levels), or else the outermost frame of the
+project's code. Samples outside the binary are counted by shared object
+(Embree, libc, the kernel).
 
 Shares are of all samples of the run (its start-up included: render enough
 frames that it is small). They are CPU time, not wall time per stage:
 `penumbra bench` gives the stages' wall clock.
 """
 
+import bisect
 import collections
 import os
 import re
@@ -109,9 +110,26 @@ def main():
             # the project's (`/rustc/...`, `~/.cargo/registry/...`).
             if not (path.startswith("/") and not path.startswith(ROOT)):
                 frames[cur].append(path.removeprefix(ROOT))
-    by_site = collections.Counter()
+    # Samples by the function they land in (every per-level clone of a
+    # kernel is a function of its own), each function named by its most
+    # common site.
+    syms = []
+    for line in run(["nm", "-C", "-n", "--defined-only", binary]).splitlines():
+        f = line.split(" ", 2)
+        if len(f) == 3 and f[1] in "tTwW":
+            syms.append((int(f[0], 16), f[2]))
+    starts = [a for a, _ in syms]
+    sites = collections.defaultdict(collections.Counter)
     for a, n in samples.items():
-        by_site[site(frames.get(a, []))] += n
+        i = bisect.bisect_right(starts, a) - 1
+        sites[i][site(frames.get(a, []))] += n
+    by_site = collections.Counter()
+    for i, c in sites.items():
+        name = syms[i][1] if i >= 0 else "?"
+        label = c.most_common(1)[0][0]
+        if not name.startswith("penumbra_isa::"):
+            label = f"{label} in {re.sub(r'<[^<>]*>', '', name)}"
+        by_site[label] += sum(c.values())
     rows = [(s, n) for s, n in by_site.items()] + [(f"[{d}]", n) for d, n in outside.items()]
     rows.sort(key=lambda r: -r[1])
     print(f"{total} samples; share of all samples by kernel site (project) or shared object [..]")
