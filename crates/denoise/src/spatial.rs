@@ -688,11 +688,11 @@ impl Ctx<'_> {
                 let d2 = ddx * ddx + ddy * ddy + ddz * ddz;
                 let big = lu.max(ql);
                 let ok_u = big.gt(V::splat(1e-30));
-                // The plane's and `U`'s quotients over one division (the
-                // tap loop's costliest instruction): `a / p` and `b / q`
-                // as `a q r` and `b p r` with `r = 1 / (p q)`. The product
-                // is kept off zero; then `r p q <= 1`, and as `dn² <= d2`
-                // the plane term stays within `inv_plane2`.
+                // The plane's and `U`'s quotients over one division, the
+                // slowest instruction of a tap: `a / p` and `b / q` as
+                // `a q r` and `b p r` with `r = 1 / (p q)`. The product is
+                // kept off zero; then `r p q <= 1`, and as `dn² <= d2` the
+                // plane term stays within `inv_plane2`.
                 let (p, q) = (d2 + 1e-30, ok_u.select(big, V::splat(1.0)));
                 let r = V::splat(1.0) / (p * q).max(V::splat(f32::MIN_POSITIVE));
                 let e_plane = dn * dn * self.inv_plane2 * (q * r);
