@@ -54,7 +54,8 @@ def text_mapping(perf_data, binary):
     shift = None
     for line in run(["readelf", "-lW", binary]).splitlines():
         f = line.split()
-        if f and f[0] == "LOAD" and "E" in f[-2:-1] + f[-3:-2]:
+        # LOAD offset vaddr paddr filesz memsz flags... align
+        if f and f[0] == "LOAD" and any("E" in flag for flag in f[6:-1]):
             shift = int(f[2], 16) - int(f[1], 16)
             break
     if shift is None:
