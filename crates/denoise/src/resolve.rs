@@ -180,30 +180,29 @@ impl Resolve {
             cur.color.par_chunks_mut(w),
             cur.meta.par_chunks_mut(w),
             cur.mixed.par_chunks_mut(w),
-        );
+        )
+            .into_par_iter()
+            .map(|(factor, color, meta, mixed)| RowOut {
+                factor,
+                color,
+                meta,
+                mixed,
+                cap,
+            });
         match motion {
             // A pixel that reads only its own input writes its result over
             // it, while the row is in cache: copying the resolved frame out
             // afterwards would move both signals through memory once more.
             None | Some(CameraMotion::Still) => {
-                (rows, factor.par_chunks_mut(w), color.par_chunks_mut(w))
-                    .into_par_iter()
+                rows.zip(factor.par_chunks_mut(w))
+                    .zip(color.par_chunks_mut(w))
                     .enumerate()
-                    .for_each(|(y, ((f, c, meta, mixed), now_f, now_c))| {
-                        let mut out = RowOut {
-                            factor: f,
-                            color: c,
-                            meta,
-                            mixed,
-                            cap,
-                        };
+                    .for_each(|(y, ((mut out, now_f), now_c))| {
                         let row = y * w;
                         for x in 0..w {
                             let here = Pixel::of(guide, row + x);
-                            let hist = match motion {
-                                None => None,
-                                _ => still_history(prev, row + x, &here, surface),
-                            };
+                            let hist =
+                                motion.and_then(|_| still_history(prev, row + x, &here, surface));
                             let now = (sanitize(now_f[x]), sanitize(now_c[x]));
                             out.put(x, &here, now, hist);
                             (now_f[x], now_c[x]) = (out.factor[x], out.color[x]);
@@ -212,47 +211,38 @@ impl Resolve {
             }
             Some(CameraMotion::Moved) => {
                 let (now_f, now_c): (&[Vec3], &[Vec3]) = (factor, color);
-                rows.into_par_iter()
-                    .enumerate()
-                    .for_each(|(y, (factor, color, meta, mixed))| {
-                        let mut out = RowOut {
-                            factor,
-                            color,
-                            meta,
-                            mixed,
-                            cap,
-                        };
-                        let row = y * w;
-                        // The clamp's 3x3 ranges, slid along the row: each
-                        // column's range over three rows is taken once and
-                        // serves three pixels.
-                        let mut ranges = settings.clamp.then(|| {
-                            (
-                                RowRanges::new(now_f, w, h, y),
-                                RowRanges::new(now_c, w, h, y),
-                            )
-                        });
-                        for x in 0..w {
-                            let i = row + x;
-                            let here = Pixel::of(guide, i);
-                            let hist = (here.meta.depth > 0.0 && guide.prev_valid[i])
-                                .then(|| reprojected(guide, prev, x, y, &here, surface))
-                                .flatten()
-                                .map(|mut r| {
-                                    if let Some((rf, rc)) = &ranges {
-                                        r.factor = rf.clamp(r.factor);
-                                        r.color = rc.clamp(r.color);
-                                    }
-                                    r
-                                });
-                            if let Some((rf, rc)) = &mut ranges {
-                                rf.advance();
-                                rc.advance();
-                            }
-                            let now = (sanitize(now_f[i]), sanitize(now_c[i]));
-                            out.put(x, &here, now, hist);
-                        }
+                rows.enumerate().for_each(|(y, mut out)| {
+                    let row = y * w;
+                    // The clamp's 3x3 ranges, slid along the row: each
+                    // column's range over three rows is taken once and
+                    // serves three pixels.
+                    let mut ranges = settings.clamp.then(|| {
+                        (
+                            RowRanges::new(now_f, w, h, y),
+                            RowRanges::new(now_c, w, h, y),
+                        )
                     });
+                    for x in 0..w {
+                        let i = row + x;
+                        let here = Pixel::of(guide, i);
+                        let hist = (here.meta.depth > 0.0 && guide.prev_valid[i])
+                            .then(|| reprojected(guide, prev, x, y, &here, surface))
+                            .flatten()
+                            .map(|mut r| {
+                                if let Some((rf, rc)) = &ranges {
+                                    r.factor = rf.clamp(r.factor);
+                                    r.color = rc.clamp(r.color);
+                                }
+                                r
+                            });
+                        if let Some((rf, rc)) = &mut ranges {
+                            rf.advance();
+                            rc.advance();
+                        }
+                        let now = (sanitize(now_f[i]), sanitize(now_c[i]));
+                        out.put(x, &here, now, hist);
+                    }
+                });
                 factor.copy_from_slice(&self.cur.factor);
                 color.copy_from_slice(&self.cur.color);
             }
