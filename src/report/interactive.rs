@@ -17,7 +17,7 @@
 
 use super::reference::{self, Reference};
 use super::stats::{interior, interior_of_view, median, rel_mse, rel_mse_masked};
-use crate::denoise::{CameraMotion, DenoiseSettings, ResolveSettings, Upscale};
+use crate::denoise::CameraMotion;
 use crate::display::DisplayMap;
 use crate::embree::{self, Device};
 use crate::render::{Frame, Mode, RenderSettings, Upscaled, World, scaled_size};
@@ -391,7 +391,7 @@ fn output_pass_row(
     });
     let map = DisplayMap::new(1.0);
     let mut pixels = vec![0u32; w as usize * h as usize];
-    let mut up = Upscale::new(w, h);
+    let mut up = Upscaled::new(w, h);
     let pixels_n = w as f64 * h as f64;
     // A 4x4 stratified jitter sequence, as the frames' (0,m,2)-net covers
     // a render pixel: after the first 16 frames every output pixel holds a
@@ -407,13 +407,12 @@ fn output_pass_row(
             .map(|k| {
                 let t = Instant::now();
                 pool.install(|| {
-                    up.resolve_rows(
-                        &frame.guides(),
-                        &frame.color,
+                    up.upscale_rows(
+                        &frame,
+                        world,
+                        camera,
                         jitter(k),
                         Some(motion),
-                        &ResolveSettings::default(),
-                        &DenoiseSettings::default(),
                         pixels.par_chunks_mut(w as usize),
                         |row: &mut &mut [u32], t: &[[f32; 4]], changed: bool| {
                             if changed {
@@ -429,6 +428,7 @@ fn output_pass_row(
     };
     let still = time(CameraMotion::Still);
     let moving = time(CameraMotion::Moved);
+    let edges = up.edge_count();
     let full = vec![Vec3::splat(0.5); w as usize * h as usize];
     let runs: Vec<f64> = (0..15)
         .map(|_| {
@@ -439,7 +439,8 @@ fn output_pass_row(
         .collect();
     format!(
         "output pass at {w}x{h} (ns per output pixel, median of 15): upscale from {rw}x{rh} \
-         + display transform, still {still:.2}, moving {moving:.2}; display transform of a \
+         + display transform, still {still:.2}, moving {moving:.2} (camera rays at {edges} \
+         output pixels on the rims of lights and the background); display transform of a \
          full-size frame {:.2}",
         median(&runs) * 1e9 / pixels_n
     )

@@ -43,7 +43,7 @@ pub use lobe::Lobe;
 pub use resolve::{CameraMotion, Resolve, ResolveSettings};
 pub use spatial::falloff;
 pub use tiles::TILE;
-pub use upscale::Upscale;
+pub use upscale::{EdgeHit, Upscale};
 
 /// Per-pixel guides the renderer fills each frame (row-major, row 0 on top).
 pub struct GuideBuffers<'a> {

@@ -39,6 +39,20 @@
 //! caller while it is in cache (`resolve_rows`: the viewer's display
 //! transform), so upscale and display are one pass over the output.
 //!
+//! Where some of an output pixel's render taps show a surface and some do
+//! not (a light's rim, the background beyond a silhouette), the nearest
+//! render pixel may be on the other side from the output pixel's own
+//! centre: at a quarter scale a light would spill up to two output pixels
+//! onto the wall beside it, at hundreds of times the wall's radiance,
+//! whenever the history is short. The caller traces camera rays at the
+//! output's resolution for exactly those pixels ([`Upscale::edge_pixels`],
+//! then [`EdgeHit`]): an output pixel whose ray lands on the other side
+//! than its nearest render pixel shows the light's or background's
+//! radiance its ray sees, or the interpolation over the taps on its ray's
+//! surface, until its own samples arrive. (Between two surfaces the
+//! history's clamp already keeps each to its own; restarting those pixels
+//! only added noise.)
+//!
 //! The history belongs to the output grid, so a change of render size (a
 //! dynamic-resolution step) keeps it; a change of output size drops it. The
 //! caller drops it when the lights change.
@@ -55,6 +69,18 @@ pub type Texel = [f32; 4];
 
 /// No render sample lands in this output column (or row).
 const NONE: u32 = u32::MAX;
+
+/// What the camera ray through the centre of an output pixel found, for
+/// the pixels [`Upscale::edge_pixels`] names: the depth of its surface (0:
+/// none, a light or the background) and, without a surface, the radiance
+/// the ray sees.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EdgeHit {
+    /// Row-major index of the output pixel.
+    pub index: u32,
+    pub depth: f32,
+    pub emission: Vec3,
+}
 
 /// Upscale state at the output's size.
 pub struct Upscale {
@@ -78,6 +104,36 @@ pub struct Upscale {
     /// Per render pixel, this frame's sanitised colour and surface depth
     /// (0: no surface), read by the output pass in one load.
     px: Vec<[f32; 4]>,
+    /// Per render pixel, whether the 2x2 taps it opens mix surfaces
+    /// (`edge_pixels`).
+    mixed: Vec<bool>,
+}
+
+/// Where the render's samples and taps fall on the output, for one frame.
+struct Grid {
+    ax: Axis,
+    ay: Axis,
+    map: (Map, Map),
+    jitter: Vec2,
+}
+
+impl Grid {
+    /// The grid of a render of `rw` x `rh` pixels, jittered by `jitter`,
+    /// on an output of `ow` x `oh`.
+    fn new((rw, rh): (usize, usize), (ow, oh): (usize, usize), jitter: Vec2) -> Grid {
+        let jitter = if jitter.is_finite() {
+            jitter.clamp(Vec2::ZERO, Vec2::ONE)
+        } else {
+            Vec2::splat(0.5)
+        };
+        let (mx, my) = Map::of((rw, rh), (ow, oh));
+        Grid {
+            ax: Axis::new(ow, rw, jitter.x, mx),
+            ay: Axis::new(oh, rh, jitter.y, my),
+            map: (mx, my),
+            jitter,
+        }
+    }
 }
 
 /// Per-axis tables of one frame (see the module comment).
@@ -176,6 +232,7 @@ impl Upscale {
             witness: Witness::default(),
             keep: Vec::new(),
             px: Vec::new(),
+            mixed: Vec::new(),
             complete: vec![RowState::Empty; height as usize],
             range: Vec::new(),
         }
@@ -197,6 +254,52 @@ impl Upscale {
         self.hist.iter().map(|t| t[3]).collect()
     }
 
+    /// The output pixels of whose four bilinear render taps (among them
+    /// the nearest render pixel) some show a surface and some do not,
+    /// row-major, into `out`: those the caller traces camera rays for
+    /// ([`EdgeHit`]) before it resolves the frame of these `guide`s and
+    /// `jitter`.
+    pub fn edge_pixels(&mut self, guide: &GuideBuffers, jitter: Vec2, out: &mut Vec<u32>) {
+        out.clear();
+        let (rw, rh) = (guide.width as usize, guide.height as usize);
+        let (ow, oh) = (self.width as usize, self.height as usize);
+        if rw * rh == 0 || ow * oh == 0 || guide.depth.len() != rw * rh {
+            return;
+        }
+        let grid = Grid::new((rw, rh), (ow, oh), jitter);
+        let surface = |i: usize| surface_depth(guide.depth[i]) > 0.0;
+        self.mixed.resize(rw * rh, false);
+        self.mixed
+            .par_chunks_mut(rw)
+            .enumerate()
+            .for_each(|(y, row)| {
+                let y1 = (y + 1).min(rh - 1);
+                for (x, m) in row.iter_mut().enumerate() {
+                    let x1 = (x + 1).min(rw - 1);
+                    let s = surface(y * rw + x);
+                    *m = [y * rw + x1, y1 * rw + x, y1 * rw + x1]
+                        .into_iter()
+                        .any(|j| surface(j) != s);
+                }
+            });
+        // The output columns whose first tap is each render column: taps
+        // rise with the column, so each is one run.
+        let mut start = vec![ow as u32; rw + 1];
+        for (ox, &(x0, _, _)) in grid.ax.taps.iter().enumerate().rev() {
+            start[x0 as usize] = ox as u32;
+        }
+        for k in (0..rw).rev() {
+            start[k] = start[k].min(start[k + 1]);
+        }
+        for (oy, &(y0, _, _)) in grid.ay.taps.iter().enumerate() {
+            let blocks = &self.mixed[y0 as usize * rw..(y0 as usize + 1) * rw];
+            for (bx, _) in blocks.iter().enumerate().filter(|(_, m)| **m) {
+                let base = (oy * ow) as u32;
+                out.extend((start[bx]..start[bx + 1]).map(|ox| base + ox));
+            }
+        }
+    }
+
     /// The output's linear colour after the last call.
     pub fn color_into(&self, out: &mut [Vec3]) {
         out.par_iter_mut()
@@ -210,7 +313,8 @@ impl Upscale {
     /// `None`: the frames are not to be averaged (unjittered, or already
     /// accumulated by the renderer), so the history is dropped and `out` is
     /// the frame interpolated. `surface` holds the denoiser's disocclusion
-    /// tolerance.
+    /// tolerance. `edges`: the camera rays at [`Upscale::edge_pixels`]'
+    /// pixels, in their order (or none: the nearest render pixel stands in).
     #[allow(clippy::too_many_arguments)]
     pub fn resolve(
         &mut self,
@@ -220,6 +324,7 @@ impl Upscale {
         motion: Option<CameraMotion>,
         settings: &ResolveSettings,
         surface: &DenoiseSettings,
+        edges: &[EdgeHit],
         out: &mut [Vec3],
     ) {
         let ow = self.width as usize;
@@ -235,6 +340,7 @@ impl Upscale {
             motion,
             settings,
             surface,
+            edges,
             out.par_chunks_mut(ow.max(1)),
             |row: &mut &mut [Vec3], texels: &[Texel], _| {
                 for (o, t) in row.iter_mut().zip(texels) {
@@ -260,6 +366,7 @@ impl Upscale {
         motion: Option<CameraMotion>,
         settings: &ResolveSettings,
         surface: &DenoiseSettings,
+        edges: &[EdgeHit],
         rows: R,
         emit: E,
     ) where
@@ -286,16 +393,12 @@ impl Upscale {
         if motion.is_none() {
             self.reset();
         }
-        let jitter = if jitter.is_finite() {
-            jitter.clamp(Vec2::ZERO, Vec2::ONE)
-        } else {
-            Vec2::splat(0.5)
-        };
-        let (mx, my) = Map::of((rw, rh), (ow, oh));
-        let (ax, ay) = (
-            Axis::new(ow, rw, jitter.x, mx),
-            Axis::new(oh, rh, jitter.y, my),
-        );
+        let Grid {
+            ax,
+            ay,
+            map: (mx, my),
+            jitter,
+        } = Grid::new((rw, rh), (ow, oh), jitter);
         // A moving camera's cap counts frames (how far back the history
         // reaches: samples per output pixel per frame times frames); a
         // still camera's counts samples, so that every scale converges to
@@ -328,6 +431,11 @@ impl Upscale {
             ax: &ax,
             ay: &ay,
         };
+        // Each output row's camera rays: a run of the sorted `edges`.
+        let row_edges = |oy: usize| {
+            let at = |o: usize| edges.partition_point(|e| (e.index as usize) < o * ow);
+            &edges[at(oy)..at(oy + 1)]
+        };
         match motion {
             Some(CameraMotion::Moved) => {
                 let moved = Moved {
@@ -346,7 +454,7 @@ impl Upscale {
                     .into_par_iter()
                     .enumerate()
                     .for_each(|(oy, (texels, complete, mut item))| {
-                        *complete = if moved.row(&frame, &blend, oy, texels) {
+                        *complete = if moved.row(&frame, &blend, oy, texels, row_edges(oy)) {
                             RowState::Complete
                         } else {
                             RowState::Filled
@@ -364,7 +472,8 @@ impl Upscale {
                     .into_par_iter()
                     .enumerate()
                     .for_each(|(oy, (texels, complete, mut item))| {
-                        let changed = still_row(&frame, &blend, oy, texels, complete);
+                        let changed =
+                            still_row(&frame, &blend, oy, texels, complete, row_edges(oy));
                         emit(&mut item, texels, changed);
                     });
             }
@@ -472,6 +581,14 @@ struct Current<'a> {
 }
 
 impl Current<'_> {
+    /// The render pixel whose sample lands in output pixel (ox, oy) of a
+    /// row whose sample row is `ky`, if one does.
+    #[inline(always)]
+    fn sample_px(&self, ky: u32, ox: usize) -> Option<[f32; 4]> {
+        let kx = self.ax.sample[ox];
+        (kx != NONE && ky != NONE).then(|| self.px[ky as usize * self.rw + kx as usize])
+    }
+
     /// The sample landing in output pixel (ox, oy) of a row whose sample
     /// row is `ky`, and its weight (0: none; the colour is then unused).
     #[inline(always)]
@@ -487,6 +604,13 @@ impl Current<'_> {
         (Vec3::new(p[0], p[1], p[2]), if hit { 1.0 } else { 0.0 })
     }
 
+    /// The render pixel whose sample lies nearest the output pixel's
+    /// centre.
+    #[inline(always)]
+    fn nearest(&self, ox: usize, oy: usize) -> [f32; 4] {
+        self.px[self.ay.nearest[oy] as usize * self.rw + self.ax.nearest[ox] as usize]
+    }
+
     /// The bilinear interpolation of the frame at the output pixel's
     /// centre over the taps on the surface of the render pixel whose sample
     /// lies nearest it (by depth: no light or colour carried across a
@@ -494,11 +618,18 @@ impl Current<'_> {
     /// no tap is.
     #[inline]
     fn interpolated(&self, ox: usize, oy: usize) -> Vec3 {
+        let here = self.nearest(ox, oy);
+        self.interpolated_on(ox, oy, here[3])
+            .unwrap_or(Vec3::new(here[0], here[1], here[2]))
+    }
+
+    /// The bilinear interpolation of the frame at the output pixel's
+    /// centre over the taps at depth `d` (0: no surface), `None` where no
+    /// tap is.
+    #[inline]
+    fn interpolated_on(&self, ox: usize, oy: usize, d: f32) -> Option<Vec3> {
         let (x0, x1, fx) = self.ax.taps[ox];
         let (y0, y1, fy) = self.ay.taps[oy];
-        let here = self.px[self.ay.nearest[oy] as usize * self.rw + self.ax.nearest[ox] as usize];
-        let d = here[3];
-        let tol = self.tolerance * d;
         let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
         for (x, y, wt) in [
             (x0, y0, (1.0 - fx) * (1.0 - fy)),
@@ -507,22 +638,50 @@ impl Current<'_> {
             (x1, y1, fx * fy),
         ] {
             let q = self.px[y as usize * self.rw + x as usize];
-            let dj = q[3];
-            let same = if d == 0.0 {
-                dj == 0.0
-            } else {
-                dj > 0.0 && (dj - d).abs() <= tol
-            };
             // A weight of 0 off the surface instead of a branch.
-            let wt = if same { wt } else { 0.0 };
+            let wt = if same_depth(d, q[3], self.tolerance) {
+                wt
+            } else {
+                0.0
+            };
             sum += Vec3::new(q[0], q[1], q[2]) * wt;
             wsum += wt;
         }
-        if wsum > 1e-6 {
-            sum / wsum
-        } else {
-            Vec3::new(here[0], here[1], here[2])
+        (wsum > 1e-6).then(|| sum / wsum)
+    }
+
+    /// Where the camera ray through an output pixel's centre found `e`
+    /// and its nearest render pixel is on the other side of a surface's
+    /// edge (one shows a surface, the other none): what the pixel shows
+    /// instead (the light's or background's radiance without a surface,
+    /// else the interpolation over the taps on the ray's surface, or the
+    /// nearest render pixel where none is); `None` where both show a
+    /// surface or both none.
+    #[inline]
+    fn at_edge(&self, oy: usize, ow: usize, e: &EdgeHit) -> Option<(usize, Vec3)> {
+        let ox = e.index as usize - oy * ow;
+        let here = self.nearest(ox, oy);
+        if (here[3] > 0.0) == (e.depth > 0.0) {
+            return None;
         }
+        let c = if e.depth > 0.0 {
+            self.interpolated_on(ox, oy, e.depth)
+                .unwrap_or(Vec3::new(here[0], here[1], here[2]))
+        } else {
+            sanitize(e.emission)
+        };
+        Some((ox, c))
+    }
+}
+
+/// Whether depths `a` and `b` (0: no surface) show one surface: both none,
+/// or both surfaces within the relative `tolerance` of `a`.
+#[inline(always)]
+fn same_depth(a: f32, b: f32, tolerance: f32) -> bool {
+    if a == 0.0 {
+        b == 0.0
+    } else {
+        b > 0.0 && (b - a).abs() <= tolerance * a
     }
 }
 
@@ -556,6 +715,7 @@ fn still_row(
     oy: usize,
     texels: &mut [Texel],
     state: &mut RowState,
+    edges: &[EdgeHit],
 ) -> bool {
     let ky = frame.ay.sample[oy];
     let changed = ky != NONE || *state == RowState::Empty;
@@ -571,6 +731,18 @@ fn still_row(
         RowState::Filled if ky != NONE && texels.iter().all(|t| t[3] > 0.0) => RowState::Complete,
         other => other,
     };
+    // A placeholder on the wrong side of an edge: the ray's surface
+    // instead (the samples, once they land, average both sides).
+    if changed {
+        let ow = texels.len();
+        for e in edges {
+            if let Some((ox, c)) = frame.at_edge(oy, ow, e)
+                && texels[ox][3] <= 0.0
+            {
+                texels[ox] = [c.x, c.y, c.z, 0.0];
+            }
+        }
+    }
     changed
 }
 
@@ -648,7 +820,14 @@ struct Moved<'a, 'g> {
 impl Moved<'_, '_> {
     /// One output row from the reprojected history; returns whether every
     /// pixel of it holds a sample.
-    fn row(&self, frame: &Current, blend: &Blend, oy: usize, texels: &mut [Texel]) -> bool {
+    fn row(
+        &self,
+        frame: &Current,
+        blend: &Blend,
+        oy: usize,
+        texels: &mut [Texel],
+        edges: &[EdgeHit],
+    ) -> bool {
         let g = self.guide;
         let ky = frame.ay.sample[oy];
         let iy = frame.ay.nearest[oy] as usize;
@@ -677,6 +856,24 @@ impl Moved<'_, '_> {
                     [c.x, c.y, c.z, 0.0]
                 }
             };
+        }
+        // Where the nearest render pixel is on the other side of an edge
+        // from the pixel's own ray, its history and clamp range are that
+        // side's: the pixel starts again from its ray's side, and keeps this
+        // frame's sample if it landed on that side.
+        let ow = texels.len();
+        for e in edges {
+            let Some((ox, c)) = frame.at_edge(oy, ow, e) else {
+                continue;
+            };
+            let mut t = [c.x, c.y, c.z, 0.0];
+            if let Some(p) = frame.sample_px(ky, ox)
+                && (p[3] > 0.0) == (e.depth > 0.0)
+            {
+                t = blend.apply(t, Vec3::new(p[0], p[1], p[2]), 1.0);
+            }
+            complete &= t[3] > 0.0;
+            texels[ox] = t;
         }
         complete
     }

@@ -203,3 +203,48 @@ fn trace_packets(
         }
     }
 }
+
+/// Traces the camera rays through the centres of the pixels `pixels`
+/// (row-major indices into `cam`'s image) into `out`, one sample each: the
+/// output-resolution rays of an upscaled frame where its render taps mix
+/// surfaces (`denoise::Upscale::edge_pixels`). Packets of 16 consecutive
+/// entries; the motion vector is left unset.
+pub fn trace_pixels(world: &World, cam: &CameraFrame, pixels: &[u32], out: &mut [GSample]) {
+    let width = cam.width.max(1);
+    let mut rays = Rays16 {
+        ox: [cam.eye.x; 16],
+        oy: [cam.eye.y; 16],
+        oz: [cam.eye.z; 16],
+        ..Rays16::default()
+    };
+    for (pixels, out) in pixels.chunks(16).zip(out.chunks_mut(16)) {
+        rays.active = 0;
+        for (lane, &k) in pixels.iter().enumerate() {
+            let d = cam.ray_dir(k % width, k / width, 0.5, 0.5);
+            (rays.dx[lane], rays.dy[lane], rays.dz[lane]) = (d.x, d.y, d.z);
+            rays.active |= 1 << lane;
+        }
+        let hits = world.rt.intersect16(&rays, true);
+        for (lane, sample) in out.iter_mut().enumerate().take(pixels.len()) {
+            let dir = Vec3::new(rays.dx[lane], rays.dy[lane], rays.dz[lane]);
+            if hits.geom_id[lane] == INVALID_ID {
+                *sample = GSample {
+                    wo: -dir,
+                    ..GSample::default()
+                };
+            } else {
+                resolve_hit(
+                    world,
+                    hits.geom_id[lane],
+                    hits.prim_id[lane],
+                    hits.u[lane],
+                    hits.v[lane],
+                    hits.t[lane],
+                    dir,
+                    None,
+                    sample,
+                );
+            }
+        }
+    }
+}

@@ -5,11 +5,13 @@
 //! change of render size keeps it.
 
 use super::frame::{Frame, PhaseTimes};
+use super::gbuffer::{GSample, PixelKind};
 use super::plan::FramePlan;
+use super::primary::trace_pixels;
 use super::settings::RenderSettings;
 use super::world::World;
-use glam::Vec3;
-use penumbra_denoise::{CameraMotion, DenoiseSettings, ResolveSettings, Upscale};
+use glam::{Vec2, Vec3};
+use penumbra_denoise::{CameraMotion, DenoiseSettings, EdgeHit, ResolveSettings, Upscale};
 use penumbra_scene::{Camera, Light};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -62,6 +64,12 @@ pub struct Upscaled {
     prev_lights: Vec<Light>,
     /// Seconds of the last frame's output pass (upscale and `emit`).
     pub upscale_seconds: f64,
+    /// The output pixels traced at the output's resolution this frame
+    /// (`Upscale::edge_pixels`), what their rays found, and that as the
+    /// upscale reads it.
+    edge_pixels: Vec<u32>,
+    edge_samples: Vec<GSample>,
+    edges: Vec<EdgeHit>,
 }
 
 impl Upscaled {
@@ -73,6 +81,9 @@ impl Upscaled {
             prev_camera: None,
             prev_lights: Vec::new(),
             upscale_seconds: 0.0,
+            edge_pixels: Vec::new(),
+            edge_samples: Vec::new(),
+            edges: Vec::new(),
         }
     }
 
@@ -151,22 +162,79 @@ impl Upscaled {
                 CameraMotion::Moved
             }
         });
-        self.upscale.resolve_rows(
-            &frame.guides(),
-            &frame.color,
-            frame.jitter,
-            motion,
-            &ResolveSettings::default(),
-            &DenoiseSettings::default(),
-            rows,
-            emit,
-        );
+        self.upscale_rows(frame, world, camera, frame.jitter, motion, rows, emit);
         self.prev_camera = Some(*camera);
         let upscale = t.elapsed().as_secs_f64();
         self.upscale_seconds = upscale;
         times.resolve += upscale;
         times.wall += upscale;
         times
+    }
+
+    /// The output pass alone, for `frame` rendered of `camera` with its
+    /// rays through `jitter`: the camera rays at the output's resolution
+    /// where the frame's taps mix surfaces, then the upscale, each finished
+    /// row to `emit` (see [`Upscaled::render_rows`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn upscale_rows<R, E>(
+        &mut self,
+        frame: &Frame,
+        world: &World,
+        camera: &Camera,
+        jitter: Vec2,
+        motion: Option<CameraMotion>,
+        rows: R,
+        emit: E,
+    ) where
+        R: IndexedParallelIterator,
+        E: Fn(&mut R::Item, &[Texel], bool) + Sync,
+    {
+        let surface = DenoiseSettings::default();
+        let guides = frame.guides();
+        self.upscale
+            .edge_pixels(&guides, jitter, &mut self.edge_pixels);
+        let (ow, oh) = self.upscale.size();
+        let cam = camera.frame(ow, oh);
+        let n = self.edge_pixels.len();
+        self.edge_samples.resize(n, GSample::default());
+        self.edge_samples
+            .par_chunks_mut(EDGE_CHUNK)
+            .zip(self.edge_pixels.par_chunks(EDGE_CHUNK))
+            .for_each(|(out, pixels)| trace_pixels(world, &cam, pixels, out));
+        self.edges.clear();
+        self.edges.extend(
+            self.edge_pixels
+                .iter()
+                .zip(&self.edge_samples)
+                .map(|(&index, g)| match g.kind {
+                    PixelKind::Surface => EdgeHit {
+                        index,
+                        depth: g.depth,
+                        emission: Vec3::ZERO,
+                    },
+                    _ => EdgeHit {
+                        index,
+                        depth: 0.0,
+                        emission: g.emission,
+                    },
+                }),
+        );
+        self.upscale.resolve_rows(
+            &guides,
+            &frame.color,
+            jitter,
+            motion,
+            &ResolveSettings::default(),
+            &surface,
+            &self.edges,
+            rows,
+            emit,
+        );
+    }
+
+    /// Output pixels whose camera rays were traced in the last frame.
+    pub fn edge_count(&self) -> usize {
+        self.edges.len()
     }
 
     /// The output's linear radiance after the last frame (whichever way it
@@ -176,6 +244,9 @@ impl Upscaled {
         &self.color
     }
 }
+
+/// Edge pixels a worker traces at a time (16-ray packets).
+const EDGE_CHUNK: usize = 256;
 
 /// One output pixel's upscaled history: linear `r, g, b` and the samples
 /// averaged.

@@ -23,6 +23,7 @@ fn run(
         motion,
         &ResolveSettings::default(),
         &DenoiseSettings::default(),
+        &[],
         &mut out,
     );
     out
@@ -176,6 +177,7 @@ fn a_disoccluded_pixel_drops_its_history() {
         Some(CameraMotion::Moved),
         &settings,
         &DenoiseSettings::default(),
+        &[],
         &mut out,
     );
     assert!(
