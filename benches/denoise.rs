@@ -2,16 +2,27 @@
 //! few discs (penumbra rings, fully shadowed cores, lit elsewhere) at 1 spp:
 //! `cold` has no history (the most filtering), `warm` a full history (the
 //! steady state of a static view). Single thread and all threads.
+//!
+//! And the output pass of the viewer's dynamic resolution: a 320x180 frame
+//! of the same plane upscaled to 1280x720 (`Upscale::resolve_rows`) with the
+//! display transform fused, for a still camera and for one whose motion
+//! vectors move every pixel (the history reprojected and clamped).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec2, Vec3};
-use penumbra::denoise::{DenoiseSettings, Denoiser, GuideBuffers};
+use penumbra::denoise::{
+    CameraMotion, DenoiseSettings, Denoiser, GuideBuffers, ResolveSettings, Upscale,
+};
+use penumbra::display::DisplayMap;
+use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 const W: u32 = 1280;
 const H: u32 = 720;
 
 struct Data {
+    width: u32,
+    height: u32,
     pos: Vec<Vec3>,
     normal: Vec<Vec3>,
     depth: Vec<f32>,
@@ -28,8 +39,8 @@ const REALISATIONS: usize = 4;
 impl Data {
     fn guide(&self) -> GuideBuffers<'_> {
         GuideBuffers {
-            width: W,
-            height: H,
+            width: self.width,
+            height: self.height,
             position: &self.pos,
             normal: &self.normal,
             depth: &self.depth,
@@ -50,8 +61,10 @@ fn hash(mut z: u64) -> f32 {
 
 /// A floor seen from above at an angle; discs cast shadows with a core of
 /// radius r and a penumbra ring of width r / 2.
-fn data() -> Data {
-    let n = (W * H) as usize;
+fn data(w: u32, h: u32) -> Data {
+    let n = (w * h) as usize;
+    // The discs' pixel coordinates are the 1280x720 frame's.
+    let k = W as f32 / w as f32;
     let discs = [
         (300.0, 200.0, 90.0),
         (800.0, 400.0, 140.0),
@@ -59,6 +72,8 @@ fn data() -> Data {
         (500.0, 600.0, 110.0),
     ];
     let mut d = Data {
+        width: w,
+        height: h,
         pos: Vec::with_capacity(n),
         normal: vec![Vec3::Y; n],
         depth: Vec::with_capacity(n),
@@ -68,12 +83,12 @@ fn data() -> Data {
         un: (0..REALISATIONS).map(|_| Vec::with_capacity(n)).collect(),
         sn: (0..REALISATIONS).map(|_| Vec::with_capacity(n)).collect(),
     };
-    for y in 0..H {
-        for x in 0..W {
-            let i = (y * W + x) as usize;
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
             let dir = Vec3::new(
-                (x as f32 + 0.5 - W as f32 / 2.0) / H as f32,
-                (H as f32 / 2.0 - y as f32 - 0.5) / H as f32 - 0.6,
+                (x as f32 + 0.5 - w as f32 / 2.0) / h as f32,
+                (h as f32 / 2.0 - y as f32 - 0.5) / h as f32 - 0.6,
                 -1.0,
             );
             let p = dir * (2.0 / -dir.y);
@@ -83,7 +98,7 @@ fn data() -> Data {
             d.u.push(Vec3::splat(1.0 / (1.0 + 0.1 * p.length_squared())));
             let mut vis = 1.0f32;
             for (cx, cy, r) in discs {
-                let dist = ((x as f32 - cx).powi(2) + (y as f32 - cy).powi(2)).sqrt();
+                let dist = ((x as f32 * k - cx).powi(2) + (y as f32 * k - cy).powi(2)).sqrt();
                 vis = vis.min(((dist - r) / (0.5 * r)).clamp(0.0, 1.0));
             }
             for k in 0..REALISATIONS {
@@ -99,7 +114,7 @@ fn data() -> Data {
 }
 
 fn bench(c: &mut Criterion) {
-    let data = data();
+    let data = data(W, H);
     let settings = DenoiseSettings::default();
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut group = c.benchmark_group("denoise_1280x720");
@@ -160,12 +175,85 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
+/// Render pixels the moving camera's motion vectors shift every pixel by.
+const SHIFT: Vec2 = Vec2::new(1.25, 0.5);
+
+fn upscale(c: &mut Criterion) {
+    let (rw, rh) = (W / 4, H / 4);
+    let mut still = data(rw, rh);
+    let color: Vec<Vec3> = still
+        .u
+        .iter()
+        .zip(&still.sn[0])
+        .map(|(u, s)| *u * s.x.min(1.0))
+        .collect();
+    let mut moving = data(rw, rh);
+    for p in &mut moving.prev_pixel {
+        *p += SHIFT;
+    }
+    let map = DisplayMap::new(1.0);
+    let mut pixels = vec![0u32; (W * H) as usize];
+    let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut group = c.benchmark_group("upscale_1280x720_from_320x180");
+    group.sample_size(30);
+    for threads in [1, all] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        for (name, d, motion) in [
+            ("still", &mut still, CameraMotion::Still),
+            ("moving", &mut moving, CameraMotion::Moved),
+        ] {
+            let mut up = Upscale::new(W, H);
+            let mut frame = 0usize;
+            // A 4x4 stratified jitter, as the frames' (0,m,2)-net covers a
+            // render pixel; 16 frames first so every output pixel holds
+            // samples.
+            let jitter = |k: usize| {
+                Vec2::new(
+                    ((k * 5 + 1) % 4) as f32 * 0.25 + 0.125,
+                    ((k / 4 * 3 + k) % 4) as f32 * 0.25 + 0.125,
+                )
+            };
+            let once = |up: &mut Upscale, frame: usize, pixels: &mut [u32]| {
+                up.resolve_rows(
+                    &d.guide(),
+                    &color,
+                    jitter(frame),
+                    Some(motion),
+                    &ResolveSettings::default(),
+                    &DenoiseSettings::default(),
+                    &[],
+                    pixels.par_chunks_mut(W as usize),
+                    |row: &mut &mut [u32], t: &[[f32; 4]], changed: bool| {
+                        if changed {
+                            map.row(t, row)
+                        }
+                    },
+                )
+            };
+            for _ in 0..16 {
+                frame += 1;
+                pool.install(|| once(&mut up, frame, &mut pixels));
+            }
+            group.bench_function(format!("{name}_{threads}t"), |b| {
+                b.iter(|| {
+                    frame += 1;
+                    pool.install(|| once(&mut up, frame, &mut pixels));
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
 #[path = "support/quiet.rs"]
 mod quiet;
 
 criterion_group! {
     name = benches;
     config = quiet::criterion();
-    targets = bench
+    targets = bench, upscale
 }
 criterion_main!(benches);

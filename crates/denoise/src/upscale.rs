@@ -58,7 +58,7 @@
 //! caller drops it when the lights change.
 
 use super::resolve::{CameraMotion, ResolveSettings};
-use super::temporal::{bilinear_taps, light_changed, sanitize};
+use super::temporal::{light_changed, sanitize};
 use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -97,10 +97,10 @@ pub struct Upscale {
     complete: Vec<RowState>,
     /// Per render pixel, the range of its 3x3 neighbourhood (the clamp).
     range: Vec<[Vec3; 2]>,
-    /// Per render pixel, whether the history where its sample was in the
-    /// last frame shows its surface and light (`same`): one test per
-    /// render pixel that the output pixels nearest it share.
-    keep: Vec<bool>,
+    /// Per render pixel, where the output pixels nearest it find their
+    /// history (`Reproject`): one motion and one surface test per render
+    /// pixel, which those output pixels share.
+    motion: Vec<Reproject>,
     /// Per render pixel, this frame's sanitised colour and surface depth
     /// (0: no surface), read by the output pass in one load.
     px: Vec<[f32; 4]>,
@@ -230,7 +230,7 @@ impl Upscale {
             hist: vec![[0.0; 4]; n],
             next: vec![[0.0; 4]; n],
             witness: Witness::default(),
-            keep: Vec::new(),
+            motion: Vec::new(),
             px: Vec::new(),
             mixed: Vec::new(),
             complete: vec![RowState::Empty; height as usize],
@@ -417,7 +417,7 @@ impl Upscale {
         };
         if motion == Some(CameraMotion::Moved) {
             self.fill_range(guide, color, surface, settings.clamp);
-            self.fill_keep(guide, surface, (mx, my));
+            self.fill_motion(guide, surface, (mx, my));
         }
         self.px.resize(rn, [0.0; 4]);
         self.px.par_iter_mut().enumerate().for_each(|(i, p)| {
@@ -439,10 +439,8 @@ impl Upscale {
         match motion {
             Some(CameraMotion::Moved) => {
                 let moved = Moved {
-                    guide,
-                    inv: my.a,
                     range: &self.range,
-                    keep: &self.keep,
+                    motion: &self.motion,
                     prev: &self.hist,
                     size: (ow, oh),
                 };
@@ -481,13 +479,20 @@ impl Upscale {
         self.witness.keep(guide, jitter, (mx, my));
     }
 
-    /// Whether each render pixel keeps its history (`keep`).
-    fn fill_keep(&mut self, guide: &GuideBuffers, surface: &DenoiseSettings, (mx, my): (Map, Map)) {
+    /// Each render pixel's `Reproject`: its motion vector at the output's
+    /// scale, and whether the history there shows its surface and light.
+    fn fill_motion(
+        &mut self,
+        guide: &GuideBuffers,
+        surface: &DenoiseSettings,
+        (mx, my): (Map, Map),
+    ) {
         let witness = &self.witness;
-        self.keep.resize(guide.depth.len(), false);
-        self.keep.par_iter_mut().enumerate().for_each(|(i, k)| {
+        let rw = guide.width as usize;
+        self.motion.resize(guide.depth.len(), Reproject::NONE);
+        self.motion.par_iter_mut().enumerate().for_each(|(i, m)| {
             let p = guide.prev_pixel[i];
-            *k = guide.prev_valid[i]
+            let keep = guide.prev_valid[i]
                 && surface_depth(guide.depth[i]) > 0.0
                 && same(
                     guide,
@@ -496,6 +501,14 @@ impl Upscale {
                     i,
                     Vec2::new(mx.a * p.x + mx.b, my.a * p.y + my.b),
                 );
+            // Output pixels move by the render pixel's motion times the
+            // output pixels per render pixel (both axes scale alike).
+            let k = Vec2::new((i % rw) as f32 + 0.5, (i / rw) as f32 + 0.5);
+            *m = if keep {
+                Reproject::of((p - k) * my.a)
+            } else {
+                Reproject::NONE
+            };
         });
     }
 
@@ -806,18 +819,58 @@ impl Witness {
     }
 }
 
+/// Where the output pixels nearest one render pixel find their history:
+/// they share its motion `d` (output pixels), so an output pixel `o` reads
+/// the last output bilinearly at `o + d`, whose taps start at `o + (dx,
+/// dy)` with the weights `w` of the fraction of `d`, the same for all of
+/// them. `keep` false: no history (disoccluded, another light, or a motion
+/// that is not finite or leaves the frame far behind).
+#[derive(Clone, Copy, Debug)]
+struct Reproject {
+    dx: i32,
+    dy: i32,
+    w: [f32; 4],
+    keep: bool,
+}
+
+impl Reproject {
+    const NONE: Reproject = Reproject {
+        dx: 0,
+        dy: 0,
+        w: [0.0; 4],
+        keep: false,
+    };
+
+    /// The taps of a motion `d` in output pixels.
+    fn of(d: Vec2) -> Reproject {
+        if !(d.is_finite() && d.x.abs() <= 1e6 && d.y.abs() <= 1e6) {
+            return Reproject::NONE;
+        }
+        let f = d.floor();
+        let (fx, fy) = (d.x - f.x, d.y - f.y);
+        Reproject {
+            dx: f.x as i32,
+            dy: f.y as i32,
+            w: [
+                (1.0 - fx) * (1.0 - fy),
+                fx * (1.0 - fy),
+                (1.0 - fx) * fy,
+                fx * fy,
+            ],
+            keep: true,
+        }
+    }
+}
+
 /// What a moving camera's output pass reads besides the frame.
-struct Moved<'a, 'g> {
-    guide: &'a GuideBuffers<'g>,
-    /// Output pixels per render pixel (both axes).
-    inv: f32,
+struct Moved<'a> {
     range: &'a [[Vec3; 2]],
-    keep: &'a [bool],
+    motion: &'a [Reproject],
     prev: &'a [Texel],
     size: (usize, usize),
 }
 
-impl Moved<'_, '_> {
+impl Moved<'_> {
     /// One output row from the reprojected history; returns whether every
     /// pixel of it holds a sample.
     fn row(
@@ -828,18 +881,15 @@ impl Moved<'_, '_> {
         texels: &mut [Texel],
         edges: &[EdgeHit],
     ) -> bool {
-        let g = self.guide;
         let ky = frame.ay.sample[oy];
         let iy = frame.ay.nearest[oy] as usize;
         let mut complete = true;
         for (ox, t) in texels.iter_mut().enumerate() {
-            let ix = frame.ax.nearest[ox] as usize;
-            let i = iy * frame.rw + ix;
+            let i = iy * frame.rw + frame.ax.nearest[ox] as usize;
             let (c, w) = frame.sample(ky, ox);
-            let hist = if self.keep[i] {
-                let centre = Vec2::new(ox as f32 + 0.5, oy as f32 + 0.5);
-                let k = Vec2::new(ix as f32 + 0.5, iy as f32 + 0.5);
-                self.reprojected(centre + (g.prev_pixel[i] - k) * self.inv)
+            let m = &self.motion[i];
+            let hist = if m.keep {
+                self.reprojected(ox as i64 + m.dx as i64, oy as i64 + m.dy as i64, &m.w)
             } else {
                 None
             };
@@ -878,10 +928,12 @@ impl Moved<'_, '_> {
         complete
     }
 
-    /// Bilinear fetch of the previous output at `at` (output pixels) over
-    /// the taps that hold samples; `None` where none does.
-    #[inline]
-    fn reprojected(&self, at: Vec2) -> Option<Texel> {
+    /// The previous output's texels at `(x, y)`, `(x + 1, y)`, `(x, y + 1)`
+    /// and `(x + 1, y + 1)` with weights `w`, over the taps on the output
+    /// that hold samples; `None` where none does.
+    #[inline(always)]
+    fn reprojected(&self, x: i64, y: i64, w: &[f32; 4]) -> Option<Texel> {
+        let (ow, oh) = (self.size.0 as i64, self.size.1 as i64);
         let (mut wsum, mut sum) = (0.0f32, [0.0f32; 4]);
         let mut tap = |j: usize, wt: f32| {
             let h = self.prev[j];
@@ -892,21 +944,20 @@ impl Moved<'_, '_> {
                 *s += v * wt;
             }
         };
-        let (ow, oh) = self.size;
-        let p = at - 0.5;
-        let f = p.floor();
-        if f.x >= 0.0 && f.y >= 0.0 && f.x + 1.0 < ow as f32 && f.y + 1.0 < oh as f32 {
+        if x >= 0 && y >= 0 && x + 1 < ow && y + 1 < oh {
             // Inside the output: the four taps without bounds tests.
-            let (fx, fy) = (p.x - f.x, p.y - f.y);
-            let j = f.y as usize * ow + f.x as usize;
-            tap(j, (1.0 - fx) * (1.0 - fy));
-            tap(j + 1, fx * (1.0 - fy));
-            tap(j + ow, (1.0 - fx) * fy);
-            tap(j + ow + 1, fx * fy);
+            let j = (y * ow + x) as usize;
+            let ow = ow as usize;
+            tap(j, w[0]);
+            tap(j + 1, w[1]);
+            tap(j + ow, w[2]);
+            tap(j + ow + 1, w[3]);
         } else {
-            let taps = bilinear_taps(at, ow as u32, oh as u32)?;
-            for (j, wt) in taps.into_iter().flatten() {
-                tap(j, wt);
+            for (k, &wt) in w.iter().enumerate() {
+                let (tx, ty) = (x + (k & 1) as i64, y + (k >> 1) as i64);
+                if wt > 0.0 && tx >= 0 && ty >= 0 && tx < ow && ty < oh {
+                    tap((ty * ow + tx) as usize, wt);
+                }
             }
         }
         if wsum < 1e-3 {
