@@ -4,7 +4,7 @@
 use super::gbuffer::{GSample, resolve_hit};
 use super::world::World;
 use glam::{Vec2, Vec3};
-use penumbra_embree::{INVALID_ID, Rays16};
+use penumbra_embree::{Hits16, INVALID_ID, Rays16};
 use penumbra_isa::Kernel;
 use penumbra_scene::CameraFrame;
 
@@ -166,26 +166,16 @@ fn trace_packets(
                 let Some(sample) = out.get_mut((r * width + i) as usize) else {
                     continue;
                 };
-                if hits.geom_id[lane] == INVALID_ID {
-                    *sample = GSample {
-                        wo: -dir,
-                        // A miss has no surface to reproject; it keeps its pixel.
-                        prev_pixel: Vec2::new(i as f32 + 0.5, (y0 + r) as f32 + 0.5),
-                        ..GSample::default()
-                    };
-                } else {
-                    resolve_hit(
-                        world,
-                        hits.geom_id[lane],
-                        hits.prim_id[lane],
-                        hits.u[lane],
-                        hits.v[lane],
-                        hits.t[lane],
-                        dir,
-                        (!still).then_some(prev),
-                        sample,
-                    );
-                }
+                let centre = Vec2::new(i as f32 + 0.5, (y0 + r) as f32 + 0.5);
+                resolve_lane(
+                    world,
+                    &hits,
+                    lane,
+                    dir,
+                    (!still).then_some(prev),
+                    centre,
+                    sample,
+                );
                 if still && sample.prev_valid {
                     // A still camera moves nothing: every pixel reprojects
                     // exactly onto itself (the projection's rounding would
@@ -225,26 +215,45 @@ pub fn trace_pixels(world: &World, cam: &CameraFrame, pixels: &[u32], out: &mut 
             rays.active |= 1 << lane;
         }
         let hits = world.rt.intersect16(&rays, true);
-        for (lane, sample) in out.iter_mut().enumerate().take(pixels.len()) {
+        for ((lane, sample), &k) in out.iter_mut().enumerate().zip(pixels) {
             let dir = Vec3::new(rays.dx[lane], rays.dy[lane], rays.dz[lane]);
-            if hits.geom_id[lane] == INVALID_ID {
-                *sample = GSample {
-                    wo: -dir,
-                    ..GSample::default()
-                };
-            } else {
-                resolve_hit(
-                    world,
-                    hits.geom_id[lane],
-                    hits.prim_id[lane],
-                    hits.u[lane],
-                    hits.v[lane],
-                    hits.t[lane],
-                    dir,
-                    None,
-                    sample,
-                );
-            }
+            let centre = Vec2::new((k % width) as f32 + 0.5, (k / width) as f32 + 0.5);
+            resolve_lane(world, &hits, lane, dir, None, centre, sample);
         }
+    }
+}
+
+/// Lane `lane` of a packet's `hits` into `sample`: a miss keeps its pixel
+/// `centre` as its motion (it has no surface to reproject), a hit is
+/// resolved against the previous camera `prev` (`None`: the caller sets the
+/// motion).
+#[inline(always)]
+fn resolve_lane(
+    world: &World,
+    hits: &Hits16,
+    lane: usize,
+    dir: Vec3,
+    prev: Option<&CameraFrame>,
+    centre: Vec2,
+    sample: &mut GSample,
+) {
+    if hits.geom_id[lane] == INVALID_ID {
+        *sample = GSample {
+            wo: -dir,
+            prev_pixel: centre,
+            ..GSample::default()
+        };
+    } else {
+        resolve_hit(
+            world,
+            hits.geom_id[lane],
+            hits.prim_id[lane],
+            hits.u[lane],
+            hits.v[lane],
+            hits.t[lane],
+            dir,
+            prev,
+            sample,
+        );
     }
 }

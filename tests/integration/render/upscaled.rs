@@ -52,6 +52,31 @@ fn upscaled_frames_at(
     })
 }
 
+/// The `reference` of `camera` at `size` with `spp` samples per pixel (in
+/// passes of 8).
+fn reference_frame(
+    world: &World,
+    pool: &rayon::ThreadPool,
+    camera: &Camera,
+    (w, h): (u32, u32),
+    spp: u32,
+) -> Frame {
+    let mut reference = Frame::new(w, h);
+    pool.install(|| {
+        for _ in 0..spp / 8 {
+            let s = RenderSettings {
+                mode: Mode::Reference,
+                spp: 8,
+                seed: 0x5eed,
+                denoise: false,
+                ..RenderSettings::default()
+            };
+            reference.render(world, camera, &s);
+        }
+    });
+    reference
+}
+
 fn unshadowed(taa: bool) -> RenderSettings {
     RenderSettings {
         mode: Mode::Unshadowed,
@@ -197,19 +222,7 @@ fn a_still_cameras_upscaled_default_frames_converge_towards_the_full_size_refere
     let world = World::build(&device, scene.clone()).expect("scene builds");
     let pool = embree::thread_pool(2).expect("thread pool");
     let (w, h) = CONVERGE_SIZE;
-    let mut reference = Frame::new(w, h);
-    pool.install(|| {
-        for _ in 0..REFERENCE_SPP / 8 {
-            let s = RenderSettings {
-                mode: Mode::Reference,
-                spp: 8,
-                seed: 0x5eed,
-                denoise: false,
-                ..RenderSettings::default()
-            };
-            reference.render(&world, &scene.camera, &s);
-        }
-    });
+    let reference = reference_frame(&world, &pool, &scene.camera, CONVERGE_SIZE, REFERENCE_SPP);
     let truth = reference.color;
     let inside = interior(w, h, &reference.gbuf);
     let settings = RenderSettings::default();
@@ -283,19 +296,7 @@ fn under_a_turning_camera_no_light_spills_past_its_rim_in_the_upscaled_output() 
         .map(|k| scene.camera.orbit(k as f32))
         .collect();
     let last = path[TURN_FRAMES - 1];
-    let mut reference = Frame::new(w, h);
-    pool.install(|| {
-        for _ in 0..TURN_REFERENCE_SPP / 8 {
-            let s = RenderSettings {
-                mode: Mode::Reference,
-                spp: 8,
-                seed: 0x5eed,
-                denoise: false,
-                ..RenderSettings::default()
-            };
-            reference.render(&world, &last, &s);
-        }
-    });
+    let reference = reference_frame(&world, &pool, &last, TURN_SIZE, TURN_REFERENCE_SPP);
     let settings = RenderSettings::default();
     let mut full = Frame::new(w, h);
     pool.install(|| {
