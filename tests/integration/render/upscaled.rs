@@ -4,7 +4,7 @@
 //! gives; no NaN at any scale or mode; the same bytes at any thread count;
 //! no trace of an old view a few frames after the camera moves.
 
-use crate::support::load;
+use crate::support::{Job, load, render};
 use glam::Vec3;
 use penumbra::embree::{self, Device};
 use penumbra::render::{Frame, Mode, RenderSettings, Upscaled, World, scaled_size};
@@ -53,28 +53,25 @@ fn upscaled_frames_at(
 }
 
 /// The `reference` of `camera` at `size` with `spp` samples per pixel (in
-/// passes of 8).
-fn reference_frame(
-    world: &World,
-    pool: &rayon::ThreadPool,
-    camera: &Camera,
-    (w, h): (u32, u32),
-    spp: u32,
-) -> Frame {
-    let mut reference = Frame::new(w, h);
-    pool.install(|| {
-        for _ in 0..spp / 8 {
-            let s = RenderSettings {
-                mode: Mode::Reference,
-                spp: 8,
-                seed: 0x5eed,
-                denoise: false,
-                ..RenderSettings::default()
-            };
-            reference.render(world, camera, &s);
-        }
-    });
-    reference
+/// frames of 8), rendered by the shared `support::render`.
+fn reference_frame(scene: &Scene, camera: Camera, (width, height): (u32, u32), spp: u32) -> Frame {
+    let scene = Scene {
+        camera,
+        ..scene.clone()
+    };
+    render(
+        &scene,
+        &Job {
+            width,
+            height,
+            mode: Mode::Reference,
+            spp: 8,
+            frames: spp / 8,
+            threads: 2,
+            seed: 0x5eed,
+            denoise: false,
+        },
+    )
 }
 
 fn unshadowed(taa: bool) -> RenderSettings {
@@ -222,7 +219,7 @@ fn a_still_cameras_upscaled_default_frames_converge_towards_the_full_size_refere
     let world = World::build(&device, scene.clone()).expect("scene builds");
     let pool = embree::thread_pool(2).expect("thread pool");
     let (w, h) = CONVERGE_SIZE;
-    let reference = reference_frame(&world, &pool, &scene.camera, CONVERGE_SIZE, REFERENCE_SPP);
+    let reference = reference_frame(&scene, scene.camera, CONVERGE_SIZE, REFERENCE_SPP);
     let truth = reference.color;
     let inside = interior(w, h, &reference.gbuf);
     let settings = RenderSettings::default();
@@ -296,7 +293,7 @@ fn under_a_turning_camera_no_light_spills_past_its_rim_in_the_upscaled_output() 
         .map(|k| scene.camera.orbit(k as f32))
         .collect();
     let last = path[TURN_FRAMES - 1];
-    let reference = reference_frame(&world, &pool, &last, TURN_SIZE, TURN_REFERENCE_SPP);
+    let reference = reference_frame(&scene, last, TURN_SIZE, TURN_REFERENCE_SPP);
     let settings = RenderSettings::default();
     let mut full = Frame::new(w, h);
     pool.install(|| {
