@@ -175,8 +175,16 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-/// Render pixels the moving camera's motion vectors shift every pixel by.
-const SHIFT: Vec2 = Vec2::new(1.25, 0.5);
+/// Render pixels the moving camera's motion vectors shift every pixel by:
+/// (1.25, 0.75) output pixels at a quarter scale, a fraction of a pixel on
+/// both axes, so that every output pixel's path back through the frames
+/// crosses the samples of every jitter position (a whole number of output
+/// pixels a frame, even on one axis, left half the output without a sample
+/// for good).
+const SHIFT: Vec2 = Vec2::new(0.3125, 0.1875);
+/// Frames run before a moving camera is timed: a steady state, the history
+/// as full as its cap lets it be.
+const MOVING_WARM_UP: usize = 64;
 
 fn upscale(c: &mut Criterion) {
     let (rw, rh) = (W / 4, H / 4);
@@ -208,8 +216,8 @@ fn upscale(c: &mut Criterion) {
             let mut up = Upscale::new(W, H);
             let mut frame = 0usize;
             // A 4x4 stratified jitter, as the frames' (0,m,2)-net covers a
-            // render pixel; 16 frames first so every output pixel holds
-            // samples.
+            // render pixel; 16 frames first so that a still camera's every
+            // output pixel holds samples.
             let jitter = |k: usize| {
                 Vec2::new(
                     ((k * 5 + 1) % 4) as f32 * 0.25 + 0.125,
@@ -233,10 +241,19 @@ fn upscale(c: &mut Criterion) {
                     },
                 )
             };
-            for _ in 0..16 {
+            let warm_up = match motion {
+                CameraMotion::Moved => MOVING_WARM_UP,
+                _ => 16,
+            };
+            for _ in 0..warm_up {
                 frame += 1;
                 pool.install(|| once(&mut up, frame, &mut pixels));
             }
+            let empty = up.history_len().iter().filter(|&&n| n <= 0.0).count();
+            eprintln!(
+                "{name}, {threads} thread(s): {empty} of {} output pixels hold no sample after {warm_up} frames",
+                W * H
+            );
             group.bench_function(format!("{name}_{threads}t"), |b| {
                 b.iter(|| {
                     frame += 1;

@@ -60,7 +60,8 @@
 use super::resolve::{CameraMotion, ResolveSettings};
 use super::temporal::{light_changed, sanitize};
 use super::{DenoiseSettings, GuideBuffers, luminance};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
+use penumbra_isa::{self as isa, Kernel};
 use rayon::prelude::*;
 
 /// One output pixel's history: the averaged colour and the number of
@@ -95,11 +96,10 @@ pub struct Upscale {
     /// Per output row: whether its pixels with no sample yet show a
     /// placeholder, and whether it has any such pixel (`RowState`).
     complete: Vec<RowState>,
-    /// Per render pixel, the range of its 3x3 neighbourhood (the clamp).
-    range: Vec<[Vec3; 2]>,
     /// Per render pixel, where the output pixels nearest it find their
-    /// history (`Reproject`): one motion and one surface test per render
-    /// pixel, which those output pixels share.
+    /// history and what clamps it (`Reproject`): one motion, one surface
+    /// test and one 3x3 range per render pixel, which those output pixels
+    /// share.
     motion: Vec<Reproject>,
     /// Per render pixel, this frame's sanitised colour and surface depth
     /// (0: no surface), read by the output pass in one load.
@@ -234,7 +234,6 @@ impl Upscale {
             px: Vec::new(),
             mixed: Vec::new(),
             complete: vec![RowState::Empty; height as usize],
-            range: Vec::new(),
         }
     }
 
@@ -415,15 +414,14 @@ impl Upscale {
             inv_cap: 1.0 / cap,
             recip: recip_table(),
         };
-        if motion == Some(CameraMotion::Moved) {
-            self.fill_range(guide, color, surface, settings.clamp);
-            self.fill_motion(guide, surface, (mx, my));
-        }
         self.px.resize(rn, [0.0; 4]);
         self.px.par_iter_mut().enumerate().for_each(|(i, p)| {
             let c = sanitize(color[i]);
             *p = [c.x, c.y, c.z, surface_depth(guide.depth[i])];
         });
+        if motion == Some(CameraMotion::Moved) {
+            self.fill_reproject(guide, surface, settings.clamp, (mx, my), cap);
+        }
         let frame = Current {
             px: &self.px,
             tolerance: surface.depth_tolerance,
@@ -439,7 +437,6 @@ impl Upscale {
         match motion {
             Some(CameraMotion::Moved) => {
                 let moved = Moved {
-                    range: &self.range,
                     motion: &self.motion,
                     prev: &self.hist,
                     size: (ow, oh),
@@ -480,75 +477,74 @@ impl Upscale {
     }
 
     /// Each render pixel's `Reproject`: its motion vector at the output's
-    /// scale, and whether the history there shows its surface and light.
-    fn fill_motion(
+    /// scale, whether the history there shows its surface and light, and
+    /// the range of its sanitised colour (`px`) over its 3x3 neighbours on
+    /// its surface (`on_surface`), so that a history cut back to it keeps
+    /// nothing of another surface (a light's edge, a silhouette); a wide
+    /// range, i.e. no clamp, when `clamp` is off. The range's fourth lane
+    /// caps the history's length at `cap`.
+    fn fill_reproject(
         &mut self,
         guide: &GuideBuffers,
-        surface: &DenoiseSettings,
-        (mx, my): (Map, Map),
-    ) {
-        let witness = &self.witness;
-        let rw = guide.width as usize;
-        self.motion.resize(guide.depth.len(), Reproject::NONE);
-        self.motion.par_iter_mut().enumerate().for_each(|(i, m)| {
-            let p = guide.prev_pixel[i];
-            let keep = guide.prev_valid[i]
-                && surface_depth(guide.depth[i]) > 0.0
-                && same(
-                    guide,
-                    witness,
-                    surface,
-                    i,
-                    Vec2::new(mx.a * p.x + mx.b, my.a * p.y + my.b),
-                );
-            // Output pixels move by the render pixel's motion times the
-            // output pixels per render pixel (both axes scale alike).
-            let k = Vec2::new((i % rw) as f32 + 0.5, (i / rw) as f32 + 0.5);
-            *m = if keep {
-                Reproject::of((p - k) * my.a)
-            } else {
-                Reproject::NONE
-            };
-        });
-    }
-
-    /// The range of each render pixel's sanitised colour over its 3x3
-    /// neighbours on its surface (`on_surface`), so that a history cut
-    /// back to it keeps nothing of another surface (a light's edge, a
-    /// silhouette); a wide range, i.e. no clamp, when `clamp` is off.
-    fn fill_range(
-        &mut self,
-        guide: &GuideBuffers,
-        color: &[Vec3],
         surface: &DenoiseSettings,
         clamp: bool,
+        (mx, my): (Map, Map),
+        cap: f32,
     ) {
+        let (witness, px) = (&self.witness, &self.px);
         let (rw, rh) = (guide.width as usize, guide.height as usize);
-        self.range.resize(rw * rh, [Vec3::ZERO; 2]);
-        if !clamp {
-            self.range.fill([Vec3::ZERO, Vec3::splat(f32::MAX)]);
-            return;
-        }
-        self.range
+        self.motion.resize(rw * rh, Reproject::NONE);
+        self.motion
             .par_chunks_mut(rw)
             .enumerate()
             .for_each(|(y, row)| {
                 let rows = y.saturating_sub(1)..(y + 2).min(rh);
-                for (x, r) in row.iter_mut().enumerate() {
+                for (x, m) in row.iter_mut().enumerate() {
                     let i = y * rw + x;
-                    let c = sanitize(color[i]);
-                    let (mut lo, mut hi) = (c, c);
-                    for ny in rows.clone() {
-                        for nx in x.saturating_sub(1)..(x + 2).min(rw) {
-                            let j = ny * rw + nx;
-                            if on_surface(guide, i, j, surface) {
-                                let c = sanitize(color[j]);
+                    let p = guide.prev_pixel[i];
+                    let keep = guide.prev_valid[i]
+                        && surface_depth(guide.depth[i]) > 0.0
+                        && same(
+                            guide,
+                            witness,
+                            surface,
+                            i,
+                            Vec2::new(mx.a * p.x + mx.b, my.a * p.y + my.b),
+                        );
+                    if !keep {
+                        *m = Reproject::NONE;
+                        continue;
+                    }
+                    // Output pixels move by the render pixel's motion
+                    // times the output pixels per render pixel (both axes
+                    // scale alike).
+                    let k = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                    let mut r = Reproject::of((p - k) * my.a);
+                    let (lo, hi) = if clamp {
+                        let here = On::new(guide, px, i, surface);
+                        let c = Vec4::from_array(px[i]);
+                        let (mut lo, mut hi) = (c, c);
+                        for ny in rows.clone() {
+                            for nx in x.saturating_sub(1)..(x + 2).min(rw) {
+                                let j = ny * rw + nx;
+                                // A neighbour off the surface stands in as
+                                // the pixel itself: no branch.
+                                let c = if here.holds(guide, px, j) {
+                                    Vec4::from_array(px[j])
+                                } else {
+                                    c
+                                };
                                 lo = lo.min(c);
                                 hi = hi.max(c);
                             }
                         }
-                    }
-                    *r = [lo, hi];
+                        (lo, hi)
+                    } else {
+                        (Vec4::ZERO, Vec4::splat(f32::MAX))
+                    };
+                    r.lo = lo.truncate().extend(f32::MIN);
+                    r.hi = hi.truncate().extend(cap);
+                    *m = r;
                 }
             });
     }
@@ -823,25 +819,32 @@ impl Witness {
 /// they share its motion `d` (output pixels), so an output pixel `o` reads
 /// the last output bilinearly at `o + d`, whose taps start at `o + (dx,
 /// dy)` with the weights `w` of the fraction of `d`, the same for all of
-/// them. `keep` false: no history (disoccluded, another light, or a motion
-/// that is not finite or leaves the frame far behind).
+/// them; and the range `lo..hi` their history is clamped to (the colour's
+/// 3x3 range, then the length's cap in the fourth lane). `keep` false: no
+/// history (disoccluded, another light, or a motion that is not finite or
+/// leaves the frame far behind). One 64-byte record: the output pixels of
+/// a run read one cache line.
 #[derive(Clone, Copy, Debug)]
 struct Reproject {
+    w: Vec4,
+    lo: Vec4,
+    hi: Vec4,
     dx: i32,
     dy: i32,
-    w: [f32; 4],
     keep: bool,
 }
 
 impl Reproject {
     const NONE: Reproject = Reproject {
+        w: Vec4::ZERO,
+        lo: Vec4::ZERO,
+        hi: Vec4::ZERO,
         dx: 0,
         dy: 0,
-        w: [0.0; 4],
         keep: false,
     };
 
-    /// The taps of a motion `d` in output pixels.
+    /// The taps of a motion `d` in output pixels (and an open range).
     fn of(d: Vec2) -> Reproject {
         if !(d.is_finite() && d.x.abs() <= 1e6 && d.y.abs() <= 1e6) {
             return Reproject::NONE;
@@ -849,14 +852,16 @@ impl Reproject {
         let f = d.floor();
         let (fx, fy) = (d.x - f.x, d.y - f.y);
         Reproject {
-            dx: f.x as i32,
-            dy: f.y as i32,
-            w: [
+            w: Vec4::new(
                 (1.0 - fx) * (1.0 - fy),
                 fx * (1.0 - fy),
                 (1.0 - fx) * fy,
                 fx * fy,
-            ],
+            ),
+            lo: Vec4::splat(f32::MIN),
+            hi: Vec4::splat(f32::MAX),
+            dx: f.x as i32,
+            dy: f.y as i32,
             keep: true,
         }
     }
@@ -864,10 +869,28 @@ impl Reproject {
 
 /// What a moving camera's output pass reads besides the frame.
 struct Moved<'a> {
-    range: &'a [[Vec3; 2]],
     motion: &'a [Reproject],
     prev: &'a [Texel],
     size: (usize, usize),
+}
+
+/// One output row of a moving camera's pass, without its rims
+/// (`Moved::pixels`), as a `Kernel` (`isa`).
+struct MovedRow<'a, 'f> {
+    moved: &'a Moved<'a>,
+    frame: &'a Current<'f>,
+    blend: &'a Blend,
+    oy: usize,
+    texels: &'a mut [Texel],
+}
+
+impl Kernel for MovedRow<'_, '_> {
+    type Out = bool;
+    #[inline(always)]
+    fn run(self) -> bool {
+        self.moved
+            .pixels(self.frame, self.blend, self.oy, self.texels)
+    }
 }
 
 impl Moved<'_> {
@@ -881,36 +904,18 @@ impl Moved<'_> {
         texels: &mut [Texel],
         edges: &[EdgeHit],
     ) -> bool {
-        let ky = frame.ay.sample[oy];
-        let iy = frame.ay.nearest[oy] as usize;
-        let mut complete = true;
-        for (ox, t) in texels.iter_mut().enumerate() {
-            let i = iy * frame.rw + frame.ax.nearest[ox] as usize;
-            let (c, w) = frame.sample(ky, ox);
-            let m = &self.motion[i];
-            let hist = if m.keep {
-                self.reprojected(ox as i64 + m.dx as i64, oy as i64 + m.dy as i64, &m.w)
-            } else {
-                None
-            };
-            *t = match hist {
-                Some(h) => {
-                    let [lo, hi] = self.range[i];
-                    let hc = Vec3::new(h[0], h[1], h[2]).clamp(lo, hi);
-                    blend.apply([hc.x, hc.y, hc.z, h[3].min(blend.cap)], c, w)
-                }
-                None if w > 0.0 => [c.x, c.y, c.z, 1.0],
-                None => {
-                    complete = false;
-                    let c = frame.interpolated(ox, oy);
-                    [c.x, c.y, c.z, 0.0]
-                }
-            };
-        }
+        let mut complete = isa::run(MovedRow {
+            moved: self,
+            frame,
+            blend,
+            oy,
+            texels,
+        });
         // Where the nearest render pixel is on the other side of an edge
         // from the pixel's own ray, its history and clamp range are that
         // side's: the pixel starts again from its ray's side, and keeps this
         // frame's sample if it landed on that side.
+        let ky = frame.ay.sample[oy];
         let ow = texels.len();
         for e in edges {
             let Some((ox, c)) = frame.at_edge(oy, ow, e) else {
@@ -928,43 +933,89 @@ impl Moved<'_> {
         complete
     }
 
+    /// The row's pixels: each reads the record of its nearest render pixel
+    /// (a run of output pixels shares one) and the sample landing in it.
+    #[inline(always)]
+    fn pixels(&self, frame: &Current, blend: &Blend, oy: usize, texels: &mut [Texel]) -> bool {
+        let rw = frame.rw;
+        let ky = frame.ay.sample[oy];
+        let iy = frame.ay.nearest[oy] as usize;
+        let steps = &self.motion[iy * rw..(iy + 1) * rw];
+        // The render row whose samples land in this output row (none: no
+        // pixel of the row takes a sample this frame).
+        let samples = if ky == NONE {
+            &[][..]
+        } else {
+            &frame.px[ky as usize * rw..(ky as usize + 1) * rw]
+        };
+        let mut complete = true;
+        for (ox, ((t, &nx), &kx)) in texels
+            .iter_mut()
+            .zip(&frame.ax.nearest)
+            .zip(&frame.ax.sample)
+            .enumerate()
+        {
+            let m = &steps[nx as usize];
+            let (c, w) = match samples.get(kx as usize) {
+                Some(p) => (Vec3::new(p[0], p[1], p[2]), 1.0),
+                None => (Vec3::ZERO, 0.0),
+            };
+            let hist = if m.keep {
+                self.reprojected(ox as i64 + m.dx as i64, oy as i64 + m.dy as i64, m.w)
+            } else {
+                None
+            };
+            *t = match hist {
+                // Without a sample the history stands as clamped (the
+                // blend's weight is 0): most pixels at a small scale.
+                Some(h) if w > 0.0 => blend.apply(h.max(m.lo).min(m.hi).to_array(), c, w),
+                Some(h) => h.max(m.lo).min(m.hi).to_array(),
+                None if w > 0.0 => [c.x, c.y, c.z, 1.0],
+                None => {
+                    complete = false;
+                    let c = frame.interpolated(ox, oy);
+                    [c.x, c.y, c.z, 0.0]
+                }
+            };
+        }
+        complete
+    }
+
     /// The previous output's texels at `(x, y)`, `(x + 1, y)`, `(x, y + 1)`
     /// and `(x + 1, y + 1)` with weights `w`, over the taps on the output
     /// that hold samples; `None` where none does.
     #[inline(always)]
-    fn reprojected(&self, x: i64, y: i64, w: &[f32; 4]) -> Option<Texel> {
+    fn reprojected(&self, x: i64, y: i64, w: Vec4) -> Option<Vec4> {
         let (ow, oh) = (self.size.0 as i64, self.size.1 as i64);
-        let (mut wsum, mut sum) = (0.0f32, [0.0f32; 4]);
-        let mut tap = |j: usize, wt: f32| {
-            let h = self.prev[j];
+        let (mut wsum, mut sum) = (0.0f32, Vec4::ZERO);
+        let mut tap = |h: &Texel, wt: f32| {
+            let h = Vec4::from_array(*h);
             // A weight of 0 for an empty tap instead of a branch.
-            let wt = if h[3] > 0.0 { wt } else { 0.0 };
+            let wt = if h.w > 0.0 { wt } else { 0.0 };
             wsum += wt;
-            for (s, v) in sum.iter_mut().zip(h) {
-                *s += v * wt;
-            }
+            sum += h * wt;
         };
         if x >= 0 && y >= 0 && x + 1 < ow && y + 1 < oh {
-            // Inside the output: the four taps without bounds tests.
+            // Inside the output: the four taps, two pairs side by side.
             let j = (y * ow + x) as usize;
             let ow = ow as usize;
-            tap(j, w[0]);
-            tap(j + 1, w[1]);
-            tap(j + ow, w[2]);
-            tap(j + ow + 1, w[3]);
+            let (top, bottom) = (&self.prev[j..j + 2], &self.prev[j + ow..j + ow + 2]);
+            tap(&top[0], w.x);
+            tap(&top[1], w.y);
+            tap(&bottom[0], w.z);
+            tap(&bottom[1], w.w);
         } else {
-            for (k, &wt) in w.iter().enumerate() {
+            for (k, wt) in w.to_array().into_iter().enumerate() {
                 let (tx, ty) = (x + (k & 1) as i64, y + (k >> 1) as i64);
                 if wt > 0.0 && tx >= 0 && ty >= 0 && tx < ow && ty < oh {
-                    tap((ty * ow + tx) as usize, wt);
+                    tap(&self.prev[(ty * ow + tx) as usize], wt);
                 }
             }
         }
         if wsum < 1e-3 {
             return None;
         }
-        let inv = 1.0 / wsum;
-        Some(sum.map(|s| s * inv))
+        Some(sum * (1.0 / wsum))
     }
 }
 
@@ -997,18 +1048,36 @@ fn light_of(g: &GuideBuffers, i: usize) -> (f32, f32) {
     (lu, lu * (1.0 - share))
 }
 
-/// Whether render pixel `j` shows the surface of render pixel `i`: both no
-/// surface (a light, the background), or both a surface within the
-/// denoiser's depth, tangent plane and normal tolerances.
-#[inline]
-fn on_surface(guide: &GuideBuffers, i: usize, j: usize, s: &DenoiseSettings) -> bool {
-    let (d, dj) = (surface_depth(guide.depth[i]), surface_depth(guide.depth[j]));
-    if d == 0.0 {
-        return dj == 0.0;
+/// The surface of a render pixel with one (`px`'s depth above 0), for
+/// the test of its 3x3 neighbours: the denoiser's depth, tangent plane and
+/// normal tolerances.
+struct On<'a> {
+    depth: f32,
+    position: Vec3,
+    normal: Vec3,
+    s: &'a DenoiseSettings,
+}
+
+impl<'a> On<'a> {
+    #[inline(always)]
+    fn new(guide: &GuideBuffers, px: &[[f32; 4]], i: usize, s: &'a DenoiseSettings) -> On<'a> {
+        On {
+            depth: px[i][3],
+            position: guide.position[i],
+            normal: guide.normal[i],
+            s,
+        }
     }
-    let n = guide.normal[i];
-    dj > 0.0
-        && (dj - d).abs() <= s.depth_tolerance * d
-        && n.dot(guide.position[j] - guide.position[i]).abs() <= s.plane_tolerance * d
-        && guide.normal[j].dot(n) >= s.min_normal_dot
+
+    /// Whether render pixel `j` shows this surface.
+    #[inline(always)]
+    fn holds(&self, guide: &GuideBuffers, px: &[[f32; 4]], j: usize) -> bool {
+        let (d, dj, n) = (self.depth, px[j][3], self.normal);
+        // `&`, not `&&`: every test's loads are in bounds, and a branch per
+        // test mispredicts along every edge.
+        (dj > 0.0)
+            & ((dj - d).abs() <= self.s.depth_tolerance * d)
+            & (n.dot(guide.position[j] - self.position).abs() <= self.s.plane_tolerance * d)
+            & (guide.normal[j].dot(n) >= self.s.min_normal_dot)
+    }
 }
