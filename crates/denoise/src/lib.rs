@@ -28,6 +28,7 @@
 
 mod history;
 mod lobe;
+mod neighbourhood;
 mod noise;
 mod resolve;
 mod spatial;

@@ -57,6 +57,7 @@
 //! dynamic-resolution step) keeps it; a change of output size drops it. The
 //! caller drops it when the lights change.
 
+use super::neighbourhood::Neighbourhood;
 use super::resolve::{CameraMotion, ResolveSettings};
 use super::temporal::{light_changed, sanitize};
 use super::{DenoiseSettings, GuideBuffers, luminance};
@@ -104,6 +105,8 @@ pub struct Upscale {
     /// Per render pixel, this frame's sanitised colour and surface depth
     /// (0: no surface), read by the output pass in one load.
     px: Vec<[f32; 4]>,
+    /// The render frame's planes for the clamp's 3x3 ranges.
+    near: Neighbourhood,
     /// Per render pixel, whether the 2x2 taps it opens mix surfaces
     /// (`edge_pixels`).
     mixed: Vec<bool>,
@@ -232,6 +235,7 @@ impl Upscale {
             witness: Witness::default(),
             motion: Vec::new(),
             px: Vec::new(),
+            near: Neighbourhood::default(),
             mixed: Vec::new(),
             complete: vec![RowState::Empty; height as usize],
         }
@@ -479,10 +483,10 @@ impl Upscale {
     /// Each render pixel's `Reproject`: its motion vector at the output's
     /// scale, whether the history there shows its surface and light, and
     /// the range of its sanitised colour (`px`) over its 3x3 neighbours on
-    /// its surface (`on_surface`), so that a history cut back to it keeps
-    /// nothing of another surface (a light's edge, a silhouette); a wide
-    /// range, i.e. no clamp, when `clamp` is off. The range's fourth lane
-    /// caps the history's length at `cap`.
+    /// its surface (`Neighbourhood`), so that a history cut back to it
+    /// keeps nothing of another surface (a light's edge, a silhouette); a
+    /// wide range, i.e. no clamp, when `clamp` is off. The range's fourth
+    /// lane caps the history's length at `cap`.
     fn fill_reproject(
         &mut self,
         guide: &GuideBuffers,
@@ -491,14 +495,17 @@ impl Upscale {
         (mx, my): (Map, Map),
         cap: f32,
     ) {
-        let (witness, px) = (&self.witness, &self.px);
         let (rw, rh) = (guide.width as usize, guide.height as usize);
+        if clamp {
+            self.near
+                .fill((rw, rh), &self.px, guide.position, guide.normal);
+        }
+        let (witness, near) = (&self.witness, &self.near);
         self.motion.resize(rw * rh, Reproject::NONE);
         self.motion
             .par_chunks_mut(rw)
             .enumerate()
             .for_each(|(y, row)| {
-                let rows = y.saturating_sub(1)..(y + 2).min(rh);
                 for (x, m) in row.iter_mut().enumerate() {
                     let i = y * rw + x;
                     let p = guide.prev_pixel[i];
@@ -519,32 +526,18 @@ impl Upscale {
                     // times the output pixels per render pixel (both axes
                     // scale alike).
                     let k = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-                    let mut r = Reproject::of((p - k) * my.a);
-                    let (lo, hi) = if clamp {
-                        let here = On::new(guide, px, i, surface);
-                        let c = Vec4::from_array(px[i]);
-                        let (mut lo, mut hi) = (c, c);
-                        for ny in rows.clone() {
-                            for nx in x.saturating_sub(1)..(x + 2).min(rw) {
-                                let j = ny * rw + nx;
-                                // A neighbour off the surface stands in as
-                                // the pixel itself: no branch.
-                                let c = if here.holds(guide, px, j) {
-                                    Vec4::from_array(px[j])
-                                } else {
-                                    c
-                                };
-                                lo = lo.min(c);
-                                hi = hi.max(c);
-                            }
+                    *m = Reproject::of((p - k) * my.a);
+                    m.lo = Vec3::ZERO.extend(f32::MIN);
+                    m.hi = Vec3::splat(f32::MAX).extend(cap);
+                }
+                if clamp {
+                    near.row(y, surface, |x, lo, hi| {
+                        let m = &mut row[x];
+                        if m.keep {
+                            m.lo = Vec3::from_array(lo).extend(f32::MIN);
+                            m.hi = Vec3::from_array(hi).extend(cap);
                         }
-                        (lo, hi)
-                    } else {
-                        (Vec4::ZERO, Vec4::splat(f32::MAX))
-                    };
-                    r.lo = lo.truncate().extend(f32::MIN);
-                    r.hi = hi.truncate().extend(cap);
-                    *m = r;
+                    });
                 }
             });
     }
@@ -822,13 +815,16 @@ impl Witness {
 /// them; and the range `lo..hi` their history is clamped to (the colour's
 /// 3x3 range, then the length's cap in the fourth lane). `keep` false: no
 /// history (disoccluded, another light, or a motion that is not finite or
-/// leaves the frame far behind). One 64-byte record: the output pixels of
-/// a run read one cache line.
+/// leaves the frame far behind). `inv_all` is `1 / (w0 + w1 + w2 + w3)`
+/// summed as the taps add up, what a pixel whose four taps all hold
+/// samples (most) divides by. One 64-byte record: the output pixels of a
+/// run read one cache line.
 #[derive(Clone, Copy, Debug)]
 struct Reproject {
     w: Vec4,
     lo: Vec4,
     hi: Vec4,
+    inv_all: f32,
     dx: i32,
     dy: i32,
     keep: bool,
@@ -839,6 +835,7 @@ impl Reproject {
         w: Vec4::ZERO,
         lo: Vec4::ZERO,
         hi: Vec4::ZERO,
+        inv_all: 0.0,
         dx: 0,
         dy: 0,
         keep: false,
@@ -851,15 +848,17 @@ impl Reproject {
         }
         let f = d.floor();
         let (fx, fy) = (d.x - f.x, d.y - f.y);
+        let w = Vec4::new(
+            (1.0 - fx) * (1.0 - fy),
+            fx * (1.0 - fy),
+            (1.0 - fx) * fy,
+            fx * fy,
+        );
         Reproject {
-            w: Vec4::new(
-                (1.0 - fx) * (1.0 - fy),
-                fx * (1.0 - fy),
-                (1.0 - fx) * fy,
-                fx * fy,
-            ),
+            w,
             lo: Vec4::splat(f32::MIN),
             hi: Vec4::splat(f32::MAX),
+            inv_all: 1.0 / (0.0 + w.x + w.y + w.z + w.w),
             dx: f.x as i32,
             dy: f.y as i32,
             keep: true,
@@ -961,7 +960,7 @@ impl Moved<'_> {
                 None => (Vec3::ZERO, 0.0),
             };
             let hist = if m.keep {
-                self.reprojected(ox as i64 + m.dx as i64, oy as i64 + m.dy as i64, m.w)
+                self.reprojected(ox as i64 + m.dx as i64, oy as i64 + m.dy as i64, m)
             } else {
                 None
             };
@@ -982,11 +981,11 @@ impl Moved<'_> {
     }
 
     /// The previous output's texels at `(x, y)`, `(x + 1, y)`, `(x, y + 1)`
-    /// and `(x + 1, y + 1)` with weights `w`, over the taps on the output
-    /// that hold samples; `None` where none does.
+    /// and `(x + 1, y + 1)` with the weights `m.w`, over the taps on the
+    /// output that hold samples; `None` where none does.
     #[inline(always)]
-    fn reprojected(&self, x: i64, y: i64, w: Vec4) -> Option<Vec4> {
-        let (ow, oh) = (self.size.0 as i64, self.size.1 as i64);
+    fn reprojected(&self, x: i64, y: i64, m: &Reproject) -> Option<Vec4> {
+        let (ow, oh, w) = (self.size.0 as i64, self.size.1 as i64, m.w);
         let (mut wsum, mut sum) = (0.0f32, Vec4::ZERO);
         let mut tap = |h: &Texel, wt: f32| {
             let h = Vec4::from_array(*h);
@@ -1000,6 +999,17 @@ impl Moved<'_> {
             let j = (y * ow + x) as usize;
             let ow = ow as usize;
             let (top, bottom) = (&self.prev[j..j + 2], &self.prev[j + ow..j + ow + 2]);
+            if top[0][3] > 0.0 && top[1][3] > 0.0 && bottom[0][3] > 0.0 && bottom[1][3] > 0.0 {
+                // The sums below with every weight kept, and the record's
+                // division: the same bits.
+                let t = |h: &Texel| Vec4::from_array(*h);
+                let sum = Vec4::ZERO
+                    + t(&top[0]) * w.x
+                    + t(&top[1]) * w.y
+                    + t(&bottom[0]) * w.z
+                    + t(&bottom[1]) * w.w;
+                return Some(sum * m.inv_all);
+            }
             tap(&top[0], w.x);
             tap(&top[1], w.y);
             tap(&bottom[0], w.z);
@@ -1046,38 +1056,4 @@ fn light_of(g: &GuideBuffers, i: usize) -> (f32, f32) {
     let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
     let share = g.lobe.get(i).map_or(0.0, |l| l.share);
     (lu, lu * (1.0 - share))
-}
-
-/// The surface of a render pixel with one (`px`'s depth above 0), for
-/// the test of its 3x3 neighbours: the denoiser's depth, tangent plane and
-/// normal tolerances.
-struct On<'a> {
-    depth: f32,
-    position: Vec3,
-    normal: Vec3,
-    s: &'a DenoiseSettings,
-}
-
-impl<'a> On<'a> {
-    #[inline(always)]
-    fn new(guide: &GuideBuffers, px: &[[f32; 4]], i: usize, s: &'a DenoiseSettings) -> On<'a> {
-        On {
-            depth: px[i][3],
-            position: guide.position[i],
-            normal: guide.normal[i],
-            s,
-        }
-    }
-
-    /// Whether render pixel `j` shows this surface.
-    #[inline(always)]
-    fn holds(&self, guide: &GuideBuffers, px: &[[f32; 4]], j: usize) -> bool {
-        let (d, dj, n) = (self.depth, px[j][3], self.normal);
-        // `&`, not `&&`: every test's loads are in bounds, and a branch per
-        // test mispredicts along every edge.
-        (dj > 0.0)
-            & ((dj - d).abs() <= self.s.depth_tolerance * d)
-            & (n.dot(guide.position[j] - self.position).abs() <= self.s.plane_tolerance * d)
-            & (guide.normal[j].dot(n) >= self.s.min_normal_dot)
-    }
 }
