@@ -632,24 +632,26 @@ impl Current<'_> {
     fn interpolated_on(&self, ox: usize, oy: usize, d: f32) -> Option<Vec3> {
         let (x0, x1, fx) = self.ax.taps[ox];
         let (y0, y1, fy) = self.ay.taps[oy];
-        let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
+        // In four lanes (the fourth, a depth, is summed and dropped): one
+        // division instead of three.
+        let (mut sum, mut wsum) = (Vec4::ZERO, 0.0f32);
         for (x, y, wt) in [
             (x0, y0, (1.0 - fx) * (1.0 - fy)),
             (x1, y0, fx * (1.0 - fy)),
             (x0, y1, (1.0 - fx) * fy),
             (x1, y1, fx * fy),
         ] {
-            let q = self.px[y as usize * self.rw + x as usize];
+            let q = Vec4::from_array(self.px[y as usize * self.rw + x as usize]);
             // A weight of 0 off the surface instead of a branch.
-            let wt = if same_depth(d, q[3], self.tolerance) {
+            let wt = if same_depth(d, q.w, self.tolerance) {
                 wt
             } else {
                 0.0
             };
-            sum += Vec3::new(q[0], q[1], q[2]) * wt;
+            sum += q * wt;
             wsum += wt;
         }
-        (wsum > 1e-6).then(|| sum / wsum)
+        (wsum > 1e-6).then(|| (sum / wsum).truncate())
     }
 
     /// Where the camera ray through an output pixel's centre found `e`
@@ -680,11 +682,9 @@ impl Current<'_> {
 /// or both surfaces within the relative `tolerance` of `a`.
 #[inline(always)]
 fn same_depth(a: f32, b: f32, tolerance: f32) -> bool {
-    if a == 0.0 {
-        b == 0.0
-    } else {
-        b > 0.0 && (b - a).abs() <= tolerance * a
-    }
+    // `&` and `|`, not branches: with `a` 0 the second test fails for any
+    // `b` (`|b| <= 0` with `b > 0`), with `a` above 0 the first does.
+    ((a == 0.0) & (b == 0.0)) | ((b > 0.0) & ((b - a).abs() <= tolerance * a))
 }
 
 /// A depth as the surface tests read it: 0 for no surface (or a value
