@@ -526,9 +526,7 @@ impl Upscale {
                     // times the output pixels per render pixel (both axes
                     // scale alike).
                     let k = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-                    *m = Reproject::of((p - k) * my.a);
-                    m.lo = Vec3::ZERO.extend(f32::MIN);
-                    m.hi = Vec3::splat(f32::MAX).extend(cap);
+                    *m = Reproject::of((p - k) * my.a, cap);
                 }
                 if clamp {
                     near.row(y, surface, |x, lo, hi| {
@@ -841,8 +839,10 @@ impl Reproject {
         keep: false,
     };
 
-    /// The taps of a motion `d` in output pixels (and an open range).
-    fn of(d: Vec2) -> Reproject {
+    /// The taps of a motion `d` in output pixels, the colour unclamped
+    /// (but for the sanitised colours' floor, 0) and the length capped at
+    /// `cap`.
+    fn of(d: Vec2, cap: f32) -> Reproject {
         if !(d.is_finite() && d.x.abs() <= 1e6 && d.y.abs() <= 1e6) {
             return Reproject::NONE;
         }
@@ -856,8 +856,8 @@ impl Reproject {
         );
         Reproject {
             w,
-            lo: Vec4::splat(f32::MIN),
-            hi: Vec4::splat(f32::MAX),
+            lo: Vec3::ZERO.extend(f32::MIN),
+            hi: Vec3::splat(f32::MAX).extend(cap),
             inv_all: 1.0 / (0.0 + w.x + w.y + w.z + w.w),
             dx: f.x as i32,
             dy: f.y as i32,
@@ -1002,12 +1002,11 @@ impl Moved<'_> {
             if top[0][3] > 0.0 && top[1][3] > 0.0 && bottom[0][3] > 0.0 && bottom[1][3] > 0.0 {
                 // The sums below with every weight kept, and the record's
                 // division: the same bits.
-                let t = |h: &Texel| Vec4::from_array(*h);
                 let sum = Vec4::ZERO
-                    + t(&top[0]) * w.x
-                    + t(&top[1]) * w.y
-                    + t(&bottom[0]) * w.z
-                    + t(&bottom[1]) * w.w;
+                    + Vec4::from_array(top[0]) * w.x
+                    + Vec4::from_array(top[1]) * w.y
+                    + Vec4::from_array(bottom[0]) * w.z
+                    + Vec4::from_array(bottom[1]) * w.w;
                 return Some(sum * m.inv_all);
             }
             tap(&top[0], w.x);
