@@ -113,8 +113,8 @@ impl DisplayMap {
     #[inline]
     fn level(&self, x: f32) -> u8 {
         let bits = x.to_bits();
-        let finite = bits < f32::INFINITY.to_bits();
-        let (x, e) = if finite {
+        let shown = bits < f32::INFINITY.to_bits();
+        let (x, e) = if shown {
             (x, (bits >> SHIFT) as usize)
         } else {
             (0.0, 0)
