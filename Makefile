@@ -3,8 +3,8 @@ SHELL := /bin/bash
 CARGO ?= cargo
 BIN := target/release/penumbra
 # Debian packages the build and the tests need (fonts-dejavu-core: the font of
-# `penumbra bench --plot`; valgrind: `make memcheck`; the build needs neither).
-APT_PACKAGES := libembree-dev libclang-dev xvfb xauth valgrind fonts-dejavu-core
+# `penumbra bench --plot`; the build does not need it).
+APT_PACKAGES := libembree-dev libclang-dev xvfb xauth fonts-dejavu-core
 
 .PHONY: run test test-embree4 deps build lint bench bench-quick profile profile-wall fit-ltc clean fuzz memcheck longrun golden-bless peer-denoise
 
@@ -61,7 +61,8 @@ bench-quick: build
 	$(BIN) bench --quick --json target/bench-quick.json
 
 # Instructions per pixel per frame, stage by stage: callgrind on a fixed
-# small render (valgrind runs the AVX2 level), counted inside Frame::render
+# small render (valgrind runs the AVX2 level; scripts/valgrind.sh fetches a
+# valgrind that decodes it), counted inside Frame::render
 # only, turned into a table by scripts/profile.py (docs/performance.md,
 # "Instruction profile"). The same binary gives the same counts on any load.
 PROFILE_WIDTH := 320
@@ -70,7 +71,7 @@ PROFILE_FRAMES := 4
 PROFILE_SCENE ?= scenes/room.toml
 profile: build
 	mkdir -p target/profile
-	valgrind --tool=callgrind --callgrind-out-file=target/profile/callgrind.out \
+	scripts/valgrind.sh --tool=callgrind --callgrind-out-file=target/profile/callgrind.out \
 	  --toggle-collect='*Frame*::render' \
 	  $(BIN) render $(PROFILE_SCENE) --width $(PROFILE_WIDTH) --height $(PROFILE_HEIGHT) \
 	  --threads 1 --frames $(PROFILE_FRAMES) --orbit 1 --out target/profile/frame.exr
@@ -127,7 +128,7 @@ fuzz: deps
 # Small renders under valgrind memcheck: any invalid read or write, or leak
 # definitely lost, in any code fails the run (--error-exitcode). No
 # suppressions are needed with Debian's Embree 3.13 / TBB (see docs/robustness.md).
-VALGRIND := valgrind --tool=memcheck --error-exitcode=99 --errors-for-leak-kinds=definite --leak-check=full --track-origins=yes --num-callers=30
+VALGRIND := scripts/valgrind.sh --tool=memcheck --error-exitcode=99 --errors-for-leak-kinds=definite --leak-check=full --track-origins=yes --num-callers=30
 # valgrind runs no AVX-512 and reports none to the program, whose hot loops
 # then run their AVX2 (or baseline) code: the same build serves.
 memcheck: build

@@ -7,7 +7,7 @@
 //!
 //! Instructions (deterministic, unlike time on a shared machine) under
 //! callgrind, which runs no AVX-512 (the AVX2 level of `isa` runs there):
-//! `cargo build --release --example u_profile && valgrind
+//! `cargo build --release --example u_profile && scripts/valgrind.sh
 //! --tool=callgrind target/release/examples/u_profile 20` (81,920
 //! evaluations); `PENUMBRA_ISA` picks a level. Without
 //! valgrind it prints its own ns per evaluation (a hint: take the minimum
