@@ -210,6 +210,31 @@ impl PixelBatch {
     /// path's formulas in its order of operations, so every lane gets its
     /// pixel's frame, cell and constants bit for bit.
     pub fn set(&mut self, lanes: [Option<&SurfacePoint>; LANES]) {
+        let mut active = 0;
+        for (l, (to, from)) in self.sp.iter_mut().zip(lanes).enumerate() {
+            if let Some(from) = from {
+                *to = *from;
+                active |= 1 << l;
+            }
+        }
+        self.set_active(active);
+    }
+
+    /// The lanes' points, for a caller that writes them in place before
+    /// `set_active` (one copy from where they come from, none in between).
+    pub fn points_mut(&mut self) -> &mut [SurfacePoint; LANES] {
+        &mut self.sp
+    }
+
+    /// Makes this batch the one of its points (`points_mut`) in the lanes
+    /// of `active` (bit `l`: lane `l`); the other lanes are padding,
+    /// whatever they held.
+    pub fn set_active(&mut self, active: u32) {
+        for (l, sp) in self.sp.iter_mut().enumerate() {
+            if active & (1 << l) == 0 {
+                *sp = BLANK;
+            }
+        }
         // Two kernels, the blended cells in memory between them: as one,
         // LLVM interleaved the per-lane blends with their transposition and
         // the constants, and spilled most of what it held.
@@ -220,7 +245,7 @@ impl PixelBatch {
         };
         isa::run(SetPoints {
             batch: self,
-            lanes,
+            active: Mask::from_fn(|l| active & (1 << l) != 0),
             cells: &mut cells,
         });
         isa::run(SetCells {
@@ -232,13 +257,12 @@ impl PixelBatch {
     /// The points' fields, frames and masks, and each lane's LTC cell
     /// (the blank cell in lanes without a specular lobe) into `cells`.
     #[inline(always)]
-    fn set_points(&mut self, lanes: [Option<&SurfacePoint>; LANES], cells: &mut Cells) {
-        let sp: [&SurfacePoint; LANES] = std::array::from_fn(|l| lanes[l].unwrap_or(&BLANK));
-        let active = Mask::from_fn(|l| lanes[l].is_some());
+    fn set_points(&mut self, active: Mask, cells: &mut Cells) {
+        let sp = &self.sp;
         let ks = [
-            gather(&sp, |s| s.specular.x),
-            gather(&sp, |s| s.specular.y),
-            gather(&sp, |s| s.specular.z),
+            gather(sp, |s| s.specular.x),
+            gather(sp, |s| s.specular.y),
+            gather(sp, |s| s.specular.z),
         ];
         // `has_specular_lobe` (`Vec3::max_element`, whose compare-select
         // `Wide::max` is) and `min_element() < 1`. Lobe A is wanted wherever
@@ -250,18 +274,18 @@ impl PixelBatch {
         self.want_b = want_b;
         self.ks = ks;
         let n = [
-            gather(&sp, |s| s.n.x),
-            gather(&sp, |s| s.n.y),
-            gather(&sp, |s| s.n.z),
+            gather(sp, |s| s.n.x),
+            gather(sp, |s| s.n.y),
+            gather(sp, |s| s.n.z),
         ];
         let wo = [
-            gather(&sp, |s| s.wo.x),
-            gather(&sp, |s| s.wo.y),
-            gather(&sp, |s| s.wo.z),
+            gather(sp, |s| s.wo.x),
+            gather(sp, |s| s.wo.y),
+            gather(sp, |s| s.wo.z),
         ];
         let (frame, cos_v) = frames(&n, &wo);
         self.frame = frame;
-        let roughness = gather(&sp, |s| s.roughness);
+        let roughness = gather(sp, |s| s.roughness);
         ltc::packed_table().lookup_cells(roughness, cos_v, &mut cells.cells);
         // Lanes without a specular lobe (and padding) get a harmless
         // cell (their lobes are masked off): identity matrices, unit
@@ -274,19 +298,16 @@ impl PixelBatch {
         cells.cos_v = cos_v;
         cells.roughness = roughness;
         self.p = [
-            gather(&sp, |s| s.p.x),
-            gather(&sp, |s| s.p.y),
-            gather(&sp, |s| s.p.z),
+            gather(sp, |s| s.p.x),
+            gather(sp, |s| s.p.y),
+            gather(sp, |s| s.p.z),
         ];
         self.kd = [
-            gather(&sp, |s| s.diffuse.x),
-            gather(&sp, |s| s.diffuse.y),
-            gather(&sp, |s| s.diffuse.z),
+            gather(sp, |s| s.diffuse.x),
+            gather(sp, |s| s.diffuse.y),
+            gather(sp, |s| s.diffuse.z),
         ];
         self.others = Wide::ZERO;
-        for (to, from) in self.sp.iter_mut().zip(sp) {
-            *to = *from;
-        }
     }
 
     /// The LTC cells of `cells` in lanes, and the correction's constants.
@@ -349,8 +370,8 @@ impl PixelBatch {
 /// not a closure: a closure is compiled out of line at baseline, whatever
 /// instruction set its caller runs (`isa`).
 #[inline(always)]
-fn gather(sp: &[&SurfacePoint; LANES], f: fn(&SurfacePoint) -> f32) -> Wide {
-    Lanes(std::array::from_fn(|l| f(sp[l])))
+fn gather(sp: &[SurfacePoint; LANES], f: fn(&SurfacePoint) -> f32) -> Wide {
+    Lanes(std::array::from_fn(|l| f(&sp[l])))
 }
 
 /// Largest condition number of an LTC map `M^-1` that the `f32` lanes
@@ -386,7 +407,7 @@ struct Cells {
 /// `PixelBatch::set_points` as a `Kernel` (`isa`).
 struct SetPoints<'a> {
     batch: &'a mut PixelBatch,
-    lanes: [Option<&'a SurfacePoint>; LANES],
+    active: Mask,
     cells: &'a mut Cells,
 }
 
@@ -394,7 +415,7 @@ impl Kernel for SetPoints<'_> {
     type Out = ();
     #[inline(always)]
     fn run(self) {
-        self.batch.set_points(self.lanes, self.cells)
+        self.batch.set_points(self.active, self.cells)
     }
 }
 

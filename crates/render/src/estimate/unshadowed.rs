@@ -100,10 +100,11 @@ pub fn analytic_u_band(
         spec_share,
         lights: n,
     };
+    let culling = culls(tolerance, n);
     for r0 in (0..rows).step_by(CULL_ROWS) {
         for x0 in (0..row_len).step_by(CULL_COLUMNS) {
-            tile.gather(gbuf, row_len, (r0, (r0 + CULL_ROWS).min(rows)), x0);
-            if !tile.points.is_empty() {
+            tile.gather(gbuf, row_len, (r0, (r0 + CULL_ROWS).min(rows)), x0, culling);
+            if tile.count > 0 {
                 tile.shade(world, tolerance, &mut out, &mut counts);
                 tile.write(&mut out);
             }
@@ -214,6 +215,9 @@ struct Tile {
     /// batches being built in place).
     runs: Vec<Run>,
     live: usize,
+    /// The surface points of the runs, and (where the tile culls) the
+    /// points themselves, run after run.
+    count: usize,
     points: Vec<SurfacePoint>,
     wide: WidePoints,
     form_factors: Vec<f32>,
@@ -232,8 +236,16 @@ struct Tile {
 
 impl Tile {
     /// The surface pixels of rows `rows` and columns `x0..x0 + CULL_COLUMNS`.
-    fn gather(&mut self, gbuf: &[GSample], row_len: usize, rows: (usize, usize), x0: usize) {
+    fn gather(
+        &mut self,
+        gbuf: &[GSample],
+        row_len: usize,
+        rows: (usize, usize),
+        x0: usize,
+        culling: bool,
+    ) {
         self.live = 0;
+        self.count = 0;
         self.points.clear();
         for r in rows.0..rows.1 {
             let row = r * row_len;
@@ -243,34 +255,33 @@ impl Tile {
                     break;
                 }
                 let len = LANES.min(row_len - c0).min(gbuf.len() - k0);
-                let first = self.points.len();
+                if self.live == self.runs.len() {
+                    self.runs.push(Run::new());
+                }
+                // The points go straight into the run's batch; the tile's
+                // list of them is kept only for the culling to read.
+                let run = &mut self.runs[self.live];
+                let first = self.count;
                 let mut surface = 0;
+                let lanes = run.batch.points_mut();
                 for (l, g) in gbuf[k0..k0 + len].iter().enumerate() {
                     if g.kind == PixelKind::Surface {
-                        self.points.push(surface_point(g));
+                        lanes[l] = surface_point(g);
                         surface |= 1 << l;
+                        if culling {
+                            self.points.push(lanes[l]);
+                        }
                     }
                 }
                 if surface == 0 {
                     continue;
                 }
-                if self.live == self.runs.len() {
-                    self.runs.push(Run::new());
-                }
-                let run = &mut self.runs[self.live];
                 self.live += 1;
-                let points = &self.points[first..];
-                let mut lanes = [None; LANES];
-                let mut next = points.iter();
-                for (l, lane) in lanes.iter_mut().enumerate() {
-                    if surface & (1 << l) != 0 {
-                        *lane = next.next();
-                    }
-                }
-                run.batch.set(lanes);
+                run.batch.set_active(surface);
                 run.k0 = k0;
                 run.first = first;
-                run.count = points.len();
+                run.count = surface.count_ones() as usize;
+                self.count += run.count;
                 run.surface = surface;
                 run.u = [[0.0; LANES]; 3];
                 run.spec = [0.0; LANES];
@@ -313,8 +324,8 @@ impl Tile {
         let lights = world.lights.batch();
         let extents = world.lights.extents();
         let n = lights.len();
-        let count = self.points.len();
-        let group = (tolerance > 0.0 && n >= CULL_MIN_LIGHTS)
+        let count = self.count;
+        let group = culls(tolerance, n)
             .then(|| PointGroup::new(&self.points))
             .flatten();
         let Some(group) = group else {
@@ -443,6 +454,11 @@ impl Tile {
         }
         counts.culled += (n - evaluated) as u64 * count as u64;
     }
+}
+
+/// Whether a tile culls its lights (`analytic_u_band`).
+fn culls(tolerance: f32, lights: usize) -> bool {
+    tolerance > 0.0 && lights >= CULL_MIN_LIGHTS
 }
 
 /// What the wide kernel's rounding may cost a tile whose largest albedo
