@@ -43,6 +43,7 @@ use std::time::Instant;
 pub use lobe::Lobe;
 pub use resolve::{CameraMotion, Resolve, ResolveSettings};
 pub use spatial::falloff;
+pub use temporal::Taps;
 pub use tiles::TILE;
 pub use upscale::{EdgeHit, Upscale};
 
@@ -185,6 +186,11 @@ pub struct Denoiser {
     /// À-trous levels each pixel needs.
     levels: Vec<u8>,
     tiles: tiles::Tiles,
+    /// Which reprojection taps each pixel passed in the last call (`taps`),
+    /// written while `keep_taps` is on.
+    taps: Vec<temporal::Taps>,
+    keep_taps: bool,
+    taps_kept: bool,
 }
 
 pub use penumbra_scene::color::luminance;
@@ -235,7 +241,23 @@ impl Denoiser {
             sigma: vec![0.0; n],
             levels: vec![0; n],
             tiles: tiles::Tiles::new(width, height),
+            taps: vec![0; n],
+            keep_taps: false,
+            taps_kept: false,
         }
+    }
+
+    /// Whether the next calls keep which reprojection taps each pixel
+    /// passed, for `taps` (off by default: a byte a pixel written for
+    /// nobody).
+    pub fn keep_taps(&mut self, keep: bool) {
+        self.keep_taps = keep;
+    }
+
+    /// Which reprojection taps each pixel passed in the last call, when it
+    /// kept them (`keep_taps`): what the colour resolve reuses.
+    pub fn taps(&self) -> Option<&[Taps]> {
+        self.taps_kept.then_some(&self.taps[..])
     }
 
     /// Reallocates the planes when `levels` à-trous levels need a wider
@@ -345,8 +367,11 @@ impl Denoiser {
             "denoise: every buffer must hold width * height pixels (the lobe guide may be empty)"
         );
         if guide.width != self.width || guide.height != self.height {
+            let keep = self.keep_taps;
             *self = Denoiser::new(guide.width, guide.height);
+            self.keep_taps = keep;
         }
+        self.taps_kept = false;
         let mut stats = DenoiseStats {
             tiles_total: self.tiles.count(),
             ..DenoiseStats::default()
@@ -374,8 +399,10 @@ impl Denoiser {
             } else {
                 &[]
             },
+            (&mut self.taps, self.keep_taps),
             settings,
         );
+        self.taps_kept = self.keep_taps;
         let t1 = Instant::now();
         stats.temporal_ms = (t1 - t0).as_secs_f64() * 1e3;
 

@@ -19,7 +19,7 @@
 //! finished frames.
 
 use super::history::{Meta, encode_normal};
-use super::temporal::{bilinear_footprint, light_changed, same_surface, sanitize};
+use super::temporal::{Taps, bilinear_footprint, light_changed, same_surface, sanitize};
 use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -138,7 +138,11 @@ impl Resolve {
     /// `color` the whole frame, for the pixels whose history is
     /// [`mixed`](Self::mixed). `surface` holds the disocclusion and
     /// light-change tolerances of the denoiser's history, so both histories
-    /// are dropped at the same places. A size change drops the history.
+    /// are dropped at the same places. `taps`: the denoiser's reprojection
+    /// of this frame (`Denoiser::taps`), given only where its history and
+    /// this one hold the same previous frame: a moving camera then takes
+    /// each pixel's taps from it rather than testing them again, with the
+    /// same result. A size change drops the history.
     pub fn resolve(
         &mut self,
         guide: &GuideBuffers,
@@ -146,6 +150,7 @@ impl Resolve {
         motion: CameraMotion,
         settings: &ResolveSettings,
         surface: &DenoiseSettings,
+        taps: Option<&[Taps]>,
     ) {
         let (w, h) = (guide.width as usize, guide.height as usize);
         let n = w * h;
@@ -163,6 +168,7 @@ impl Resolve {
         if guide.width != self.width || guide.height != self.height {
             *self = Resolve::new(guide.width, guide.height);
         }
+        let taps = taps.filter(|t| t.len() == n);
         if n == 0 {
             return;
         }
@@ -226,7 +232,10 @@ impl Resolve {
                         let i = row + x;
                         let here = Pixel::of(guide, i);
                         let hist = (here.meta.depth > 0.0 && guide.prev_valid[i])
-                            .then(|| reprojected(guide, prev, x, y, &here, surface))
+                            .then(|| match taps {
+                                Some(taps) => retraced(guide, prev, x, y, taps[i]),
+                                None => reprojected(guide, prev, x, y, &here, surface),
+                            })
                             .flatten()
                             .map(|mut r| {
                                 if let Some((rf, rc)) = &ranges {
@@ -402,6 +411,48 @@ fn reprojected(
     {
         return None;
     }
+    Some(Resolved {
+        factor: acc.factor * inv,
+        color: acc.color * inv,
+        len: acc.len * inv,
+        mixed: acc.mixed,
+    })
+}
+
+/// `reprojected` with the taps the denoiser's reprojection passed
+/// (`Taps`): the same taps, sums and order, without the tests.
+#[inline(always)]
+fn retraced(
+    guide: &GuideBuffers,
+    prev: &ColorHistory,
+    x: usize,
+    y: usize,
+    passed: Taps,
+) -> Option<Resolved> {
+    if passed == 0 {
+        return None;
+    }
+    let taps = bilinear_footprint(guide, x, y)?;
+    let mut acc = Resolved {
+        factor: Vec3::ZERO,
+        color: Vec3::ZERO,
+        len: 0.0,
+        mixed: false,
+    };
+    let mut wsum = 0.0f32;
+    for (k, tap) in taps.into_iter().enumerate() {
+        if let Some((j, wt)) = tap.filter(|_| passed & (1 << k) != 0) {
+            wsum += wt;
+            acc.factor += prev.factor[j] * wt;
+            acc.color += prev.color[j] * wt;
+            acc.len += prev.meta[j].len * wt;
+            acc.mixed |= prev.mixed[j];
+        }
+    }
+    if wsum < 1e-3 {
+        return None;
+    }
+    let inv = 1.0 / wsum;
     Some(Resolved {
         factor: acc.factor * inv,
         color: acc.color * inv,

@@ -461,6 +461,11 @@ pub(crate) mod lanes {
         pub fn and(self, o: M) -> M {
             M(each(|l| self.0[l] & o.0[l]))
         }
+        /// Whether lane `l` is set.
+        #[inline(always)]
+        pub fn lane(self, l: usize) -> bool {
+            self.0[l] != 0
+        }
     }
 
     macro_rules! binop {

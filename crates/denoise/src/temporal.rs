@@ -54,7 +54,17 @@ struct Reprojected {
     m1: V,
     m2: V,
     len: V,
+    /// Per lane, which of the four taps passed the tests (`Taps`).
+    passed: [u8; LANES],
 }
+
+/// Which of a pixel's four bilinear taps (in `bilinear_taps`' order: bit
+/// `k` for tap `k`) the reprojection took its history from; 0 where it kept
+/// none (no surface, no motion vector, too little valid footprint, or the
+/// light changed). The colour resolve reads these instead of testing its
+/// own history again: its records hold the same surfaces, so its taps
+/// would pass and fail alike.
+pub type Taps = u8;
 
 impl Reprojected {
     #[inline(always)]
@@ -92,6 +102,7 @@ pub(crate) fn accumulate(
     un: &mut [Vec3],
     sn: &mut [Vec3],
     unsampled: &[u8],
+    (taps, keep_taps): (&mut [Taps], bool),
     settings: &DenoiseSettings,
 ) {
     let w = guide.width as usize;
@@ -104,12 +115,12 @@ pub(crate) fn accumulate(
         (guides.par_rows_mut(), acc.par_rows_mut()),
         moments.par_rows_mut(),
         row_class.par_chunks_mut(tw),
-        un.par_chunks_mut(w),
-        sn.par_chunks_mut(w),
+        (un.par_chunks_mut(w), sn.par_chunks_mut(w)),
+        taps.par_chunks_mut(w),
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(y, (h, (gd, ar), raw, class, un, sn))| {
+        .for_each(|(y, (h, (gd, ar), raw, class, (un, sn), taps))| {
             isa::run(Row {
                 guide,
                 prev,
@@ -123,6 +134,7 @@ pub(crate) fn accumulate(
                 class,
                 un,
                 sn,
+                taps: keep_taps.then_some(taps),
                 planes: (gs, gp, ss, sp),
                 moment_planes: (ms, mp),
             })
@@ -148,6 +160,8 @@ struct Row<'a, 'g> {
     class: &'a mut [u8],
     un: &'a mut [Vec3],
     sn: &'a mut [Vec3],
+    /// The row's `Taps`, when they are kept.
+    taps: Option<&'a mut [Taps]>,
     /// Stride and border of the guide planes, then of the signal planes.
     planes: (usize, usize, usize, usize),
     moment_planes: (usize, usize),
@@ -170,6 +184,7 @@ impl Kernel for Row<'_, '_> {
             class,
             un,
             sn,
+            mut taps,
             planes: (gs, gp, ss, sp),
             moment_planes: (ms, mp),
         } = self;
@@ -240,6 +255,9 @@ impl Kernel for Row<'_, '_> {
             } else {
                 Reprojected::default()
             };
+            if let Some(taps) = taps.as_deref_mut() {
+                taps[x0..x0 + n].copy_from_slice(&hist.passed[..n]);
+            }
             for (l, p) in px.iter().enumerate().take(n) {
                 if !p.surface {
                     continue;
@@ -412,7 +430,8 @@ fn reproject_lanes(
     let mut un = [zero; 3];
     let mut sn = [zero; 3];
     let (mut m1, mut m2, mut len, mut lu_prev, mut lud_prev) = (zero, zero, zero, zero, zero);
-    for (dx, dy, wt) in taps {
+    let mut passed = [0u8; LANES];
+    for (k, (dx, dy, wt)) in taps.into_iter().enumerate() {
         let mut j = [0usize; LANES];
         let mut inside = [false; LANES];
         for l in 0..LANES {
@@ -504,6 +523,9 @@ fn reproject_lanes(
             .and(near_plane)
             .and(mlen.gt(zero))
             .and(close);
+        for (p, l) in passed.iter_mut().zip(0..LANES) {
+            *p |= u8::from(valid.lane(l)) << k;
+        }
         let wt = valid.select(wt, zero);
         wsum = wsum + wt;
         let add = |acc: V, v: V| acc + valid.select(v * wt, zero);
@@ -533,6 +555,7 @@ fn reproject_lanes(
         m1: m1 * inv,
         m2: m2 * inv,
         len: len * inv,
+        passed: each(|l| if ok[l] { passed[l] } else { 0 }),
     }
 }
 

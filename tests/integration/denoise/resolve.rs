@@ -1,8 +1,11 @@
 //! The temporal resolve under a still camera: jittered frames average each
-//! pixel's area, the box filter `reference` uses (TAA).
+//! pixel's area, the box filter `reference` uses (TAA). Under a moving
+//! camera it may take its taps from the denoiser's reprojection.
 
+use crate::support::denoise::{self as synthetic, Rng, Surface};
 use crate::support::{interior, load};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
+use penumbra::denoise::{CameraMotion, DenoiseSettings, Denoiser, Resolve, ResolveSettings};
 use penumbra::embree::{self, Device};
 use penumbra::render::{Frame, Mode, RenderSettings, World};
 use penumbra::report::stats::{rel_mse, rel_mse_masked};
@@ -133,4 +136,130 @@ fn a_light_edit_under_a_still_camera_leaves_no_trace_of_the_old_light() {
     pool.install(|| frame.render(&dark, &scene.camera, &settings));
     let bright = frame.color.iter().filter(|c| **c != Vec3::ZERO).count();
     assert_eq!(bright, 0, "pixels still lit after the lights went dark");
+}
+
+/// Two synthetic frames for the moving resolve: a back plane with a nearer
+/// one over its left part that slides right between them (a disocclusion
+/// along its edge), a motion of a fraction of a pixel (every pixel reads
+/// four taps), and the light tripled in the top right corner of the second
+/// frame (history dropped there by the light test).
+fn sliding_planes(w: u32, h: u32) -> (synthetic::Frame, synthetic::Frame) {
+    let near = |edge: u32| {
+        move |x: u32, _| {
+            if x < edge {
+                Surface::Back(2.0)
+            } else {
+                Surface::Back(4.0)
+            }
+        }
+    };
+    let first = synthetic::Frame::new(w, h, near(w / 3));
+    let mut second = synthetic::Frame::new(w, h, near(w / 3 + 3));
+    let shift = Vec2::new(-2.3, 1.6);
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            second.prev_pixel[i] = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + shift;
+            if x > 3 * w / 4 && y < h / 4 {
+                second.u[i] = Vec3::splat(3.0);
+            }
+        }
+    }
+    (first, second)
+}
+
+/// The denoiser keeps which taps each pixel passed only when asked to.
+#[test]
+fn the_denoiser_keeps_its_taps_only_when_asked() {
+    let (w, h) = (24u32, 16u32);
+    let (first, _) = sliding_planes(w, h);
+    let n = first.n();
+    let mut d = Denoiser::new(w, h);
+    let (mut un, mut sn) = (vec![Vec3::ONE; n], vec![Vec3::splat(0.5); n]);
+    d.denoise(
+        &first.guide(),
+        &mut un,
+        &mut sn,
+        &DenoiseSettings::default(),
+    );
+    assert!(d.taps().is_none());
+    d.keep_taps(true);
+    d.denoise(
+        &first.guide(),
+        &mut un,
+        &mut sn,
+        &DenoiseSettings::default(),
+    );
+    assert_eq!(d.taps().map(<[u8]>::len), Some(n));
+}
+
+/// A moving camera's resolve that takes each pixel's taps from the
+/// denoiser's reprojection (`Denoiser::taps`) writes the same bits as one
+/// that tests its own history: both histories hold the same surfaces, so
+/// their taps pass and fail alike. The frames have pixels whose four taps
+/// all pass, some pass, and none pass.
+#[test]
+fn a_moving_resolve_on_the_denoisers_taps_gives_the_bits_of_its_own_tests() {
+    let (w, h) = (48u32, 32u32);
+    let (first, second) = sliding_planes(w, h);
+    let n = first.n();
+    let mut rng = Rng::new(7);
+    let mut signal = || -> Vec<Vec3> {
+        (0..n)
+            .map(|_| Vec3::new(rng.f32(), rng.f32(), rng.f32()))
+            .collect()
+    };
+    let inputs = [
+        (signal(), signal(), signal(), signal()),
+        (signal(), signal(), signal(), signal()),
+    ];
+    let mut d = Denoiser::new(w, h);
+    d.keep_taps(true);
+    let (mut own, mut reused) = (Resolve::new(w, h), Resolve::new(w, h));
+    let mut taps = Vec::new();
+    let mut out = Vec::new();
+    for (k, (frame, (un, sn, factor, color))) in
+        [&first, &second].into_iter().zip(&inputs).enumerate()
+    {
+        let guide = frame.guide();
+        let (mut un, mut sn) = (un.clone(), sn.clone());
+        d.denoise(&guide, &mut un, &mut sn, &DenoiseSettings::default());
+        taps = d.taps().expect("taps kept").to_vec();
+        let motion = if k == 0 {
+            CameraMotion::Still
+        } else {
+            CameraMotion::Moved
+        };
+        out.clear();
+        for (resolve, given) in [(&mut own, None), (&mut reused, Some(&taps[..]))] {
+            let (mut f, mut c) = (factor.clone(), color.clone());
+            let s = (&ResolveSettings::default(), &DenoiseSettings::default());
+            resolve.resolve(&guide, (&mut f, &mut c), motion, s.0, s.1, given);
+            out.push((f, c));
+        }
+        let bits = |v: &[Vec3]| {
+            v.iter()
+                .flat_map(|c| c.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&out[0].0), bits(&out[1].0), "factor, frame {k}");
+        assert_eq!(bits(&out[0].1), bits(&out[1].1), "colour, frame {k}");
+        assert_eq!(
+            own.history_len(),
+            reused.history_len(),
+            "lengths, frame {k}"
+        );
+        assert_eq!(own.mixed(), reused.mixed(), "mixed, frame {k}");
+    }
+    let passed = |m: u32| taps.iter().filter(|&&t| t.count_ones() == m).count();
+    assert!(
+        passed(4) > 0 && passed(0) > 0,
+        "all / none: {} / {}",
+        passed(4),
+        passed(0)
+    );
+    assert!(
+        (1..4).map(passed).sum::<usize>() > 0,
+        "no pixel with some of its taps"
+    );
 }

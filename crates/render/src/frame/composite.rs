@@ -49,7 +49,7 @@ impl Frame {
     /// averages it, or its per-frame noise-free factor, over frames.
     // Out of line: a stage of `make profile` (scripts/profile.py).
     #[inline(never)]
-    pub(super) fn resolve_colour(&mut self, input: ResolveInput, motion: CameraMotion) {
+    pub(super) fn resolve_colour(&mut self, input: ResolveInput, motion: CameraMotion, taps: bool) {
         let guide = self.guide.buffers(&self.u);
         self.resolve.resolve(
             &guide,
@@ -57,6 +57,7 @@ impl Frame {
             motion,
             &ResolveSettings::default(),
             &DenoiseSettings::default(),
+            if taps { self.denoiser.taps() } else { None },
         );
         if input == ResolveInput::Whole {
             return;

@@ -65,6 +65,10 @@ pub struct Frame {
     /// The rate the denoiser's history was built at.
     history_rate: Option<VisibilityRate>,
     resolve: Resolve,
+    /// The denoiser's history and the resolve's hold the same frame (the
+    /// last one ran both at the frame's own size, and nothing was dropped
+    /// since): a moving camera's resolve reuses the denoiser's taps.
+    shared_taps: bool,
     /// What the resolve averages this frame (see `resolve_colour`).
     resolve_in: Vec<Vec3>,
     /// `reference`: running sum of samples, and how many per pixel.
@@ -102,6 +106,7 @@ impl Frame {
             denoiser: Denoiser::new(width, height),
             history_rate: None,
             resolve: Resolve::new(width, height),
+            shared_taps: false,
             resolve_in: vec![Vec3::ZERO; n],
             accum: Vec::new(),
             accum_spp: 0,
@@ -143,6 +148,7 @@ impl Frame {
             s.reset();
         }
         self.resolve.reset();
+        self.shared_taps = false;
         self.jitter_index = 0;
         self.accum.clear();
         self.accum_spp = 0;
@@ -193,6 +199,13 @@ impl Frame {
         } else {
             PixelOffset::Centre
         };
+        // The denoiser at the frame's own size, then the resolve: both
+        // reproject onto the same previous frame.
+        let both = plan.denoise
+            && !(plan.rate == VisibilityRate::Quarter && self.quads.is_some())
+            && plan.resolve.is_some();
+        let reuse_taps = both && self.shared_taps && motion == CameraMotion::Moved;
+        self.denoiser.keep_taps(reuse_taps);
         let (mut denoise, mut upsample) = (0.0, 0.0);
         if plan.reference {
             self.render_reference(world, &cam, settings, &clock);
@@ -232,13 +245,14 @@ impl Frame {
         let mut resolve = 0.0;
         if let Some(input) = plan.resolve {
             let t = Instant::now();
-            self.resolve_colour(input, motion);
+            self.resolve_colour(input, motion, reuse_taps);
             resolve = t.elapsed().as_secs_f64();
         }
         self.jitter = match offset {
             PixelOffset::Frame(o) => o,
             _ => Vec2::splat(0.5),
         };
+        self.shared_taps = both;
         self.prev_camera = Some(*camera);
         self.frame_index = self.frame_index.wrapping_add(1);
         self.jitter_index = self.jitter_index.wrapping_add(1);
