@@ -215,9 +215,10 @@ struct Tile {
     /// batches being built in place).
     runs: Vec<Run>,
     live: usize,
-    /// The surface points of the runs, and (where the tile culls) the
-    /// points themselves, run after run.
+    /// How many surface points the runs hold.
     count: usize,
+    /// The runs' surface points, run after run: kept only where the tile
+    /// culls (`culls`), whose bounds read them all at once.
     points: Vec<SurfacePoint>,
     wide: WidePoints,
     form_factors: Vec<f32>,

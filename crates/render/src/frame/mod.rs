@@ -201,9 +201,7 @@ impl Frame {
         };
         // The denoiser at the frame's own size, then the resolve: both
         // reproject onto the same previous frame.
-        let both = plan.denoise
-            && !(plan.rate == VisibilityRate::Quarter && self.quads.is_some())
-            && plan.resolve.is_some();
+        let both = plan.denoise && plan.rate != VisibilityRate::Quarter && plan.resolve.is_some();
         let reuse_taps = both && self.shared_taps && motion == CameraMotion::Moved;
         self.denoiser.keep_taps(reuse_taps);
         let (mut denoise, mut upsample) = (0.0, 0.0);
