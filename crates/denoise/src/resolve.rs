@@ -379,44 +379,30 @@ fn reprojected(
 ) -> Option<Resolved> {
     let taps = bilinear_footprint(guide, x, y)?;
     let (d, pos) = (here.meta.depth, here.meta.pos);
-    let mut acc = Resolved {
-        factor: Vec3::ZERO,
-        color: Vec3::ZERO,
-        len: 0.0,
-        mixed: false,
-    };
-    let (mut wsum, mut lu, mut lu_diffuse) = (0.0f32, 0.0f32, 0.0f32);
-    for (j, wt) in taps.into_iter().flatten() {
-        let m = &prev.meta[j];
-        if same_surface(m, d, pos, here.normal, s) {
-            wsum += wt;
-            acc.factor += prev.factor[j] * wt;
-            acc.color += prev.color[j] * wt;
-            acc.len += m.len * wt;
-            acc.mixed |= prev.mixed[j];
-            lu += m.lu * wt;
-            lu_diffuse += m.lu_diffuse * wt;
+    let mut passed: Taps = 0;
+    for (k, tap) in taps.iter().enumerate() {
+        if let Some((j, _)) = *tap
+            && same_surface(&prev.meta[j], d, pos, here.normal, s)
+        {
+            passed |= 1 << k;
         }
     }
-    if wsum < 1e-3 {
-        return None;
-    }
-    let inv = 1.0 / wsum;
-    if s.light_test
-        && light_changed(
+    let (resolved, inv) = summed(prev, &taps, passed)?;
+    if s.light_test {
+        let (mut lu, mut lu_diffuse) = (0.0f32, 0.0f32);
+        for (j, wt) in passed_taps(&taps, passed) {
+            lu += prev.meta[j].lu * wt;
+            lu_diffuse += prev.meta[j].lu_diffuse * wt;
+        }
+        if light_changed(
             (here.meta.lu, here.meta.lu_diffuse),
             (lu * inv, lu_diffuse * inv),
             s.u_change,
-        )
-    {
-        return None;
+        ) {
+            return None;
+        }
     }
-    Some(Resolved {
-        factor: acc.factor * inv,
-        color: acc.color * inv,
-        len: acc.len * inv,
-        mixed: acc.mixed,
-    })
+    Some(resolved)
 }
 
 /// `reprojected` with the taps the denoiser's reprojection passed
@@ -433,6 +419,26 @@ fn retraced(
         return None;
     }
     let taps = bilinear_footprint(guide, x, y)?;
+    summed(prev, &taps, passed).map(|(r, _)| r)
+}
+
+/// The bilinear `taps` whose bit is set in `passed`, in their order.
+#[inline(always)]
+fn passed_taps(
+    taps: &[Option<(usize, f32)>; 4],
+    passed: Taps,
+) -> impl Iterator<Item = (usize, f32)> + '_ {
+    (0..4).filter_map(move |k| taps[k].filter(|_| passed & (1 << k) != 0))
+}
+
+/// The history's weighted mean over the taps that `passed`, and the
+/// reciprocal of their weight; `None` below a sliver of valid footprint.
+#[inline(always)]
+fn summed(
+    prev: &ColorHistory,
+    taps: &[Option<(usize, f32)>; 4],
+    passed: Taps,
+) -> Option<(Resolved, f32)> {
     let mut acc = Resolved {
         factor: Vec3::ZERO,
         color: Vec3::ZERO,
@@ -440,25 +446,24 @@ fn retraced(
         mixed: false,
     };
     let mut wsum = 0.0f32;
-    for (k, tap) in taps.into_iter().enumerate() {
-        if let Some((j, wt)) = tap.filter(|_| passed & (1 << k) != 0) {
-            wsum += wt;
-            acc.factor += prev.factor[j] * wt;
-            acc.color += prev.color[j] * wt;
-            acc.len += prev.meta[j].len * wt;
-            acc.mixed |= prev.mixed[j];
-        }
+    for (j, wt) in passed_taps(taps, passed) {
+        wsum += wt;
+        acc.factor += prev.factor[j] * wt;
+        acc.color += prev.color[j] * wt;
+        acc.len += prev.meta[j].len * wt;
+        acc.mixed |= prev.mixed[j];
     }
     if wsum < 1e-3 {
         return None;
     }
     let inv = 1.0 / wsum;
-    Some(Resolved {
+    let resolved = Resolved {
         factor: acc.factor * inv,
         color: acc.color * inv,
         len: acc.len * inv,
         mixed: acc.mixed,
-    })
+    };
+    Some((resolved, inv))
 }
 
 /// The range, per channel, of the current frame's sanitized values in the
