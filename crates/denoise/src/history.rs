@@ -1,13 +1,14 @@
 //! One frame of history: the temporally accumulated signals plus what the
 //! next frame needs to validate a reprojection tap.
 //!
-//! At 1280x720 the denoiser is bound by memory traffic, not arithmetic, so
-//! the record is kept small (64 bytes with both signals): the normal is octahedron-encoded.
+//! The record is kept small (17 values with both signals): the normal is
+//! octahedron-encoded. The colour resolve keeps the same metadata per pixel
+//! as one record (`Meta`).
 
 use glam::{Vec2, Vec3};
 
-/// Per-pixel history metadata, packed so one reprojection tap touches one
-/// small record.
+/// Per-pixel history metadata of the colour resolve, packed so one
+/// reprojection tap touches one small record.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Meta {
     pub pos: Vec3,
@@ -19,40 +20,73 @@ pub(crate) struct Meta {
     /// (which a camera move cannot change), to detect light changes.
     pub lu: f32,
     pub lu_diffuse: f32,
-    /// Accumulated first and second moments of the raw per-frame ratio
-    /// (same blend as the signals), for the temporal noise estimate.
-    pub m1: f32,
-    pub m2: f32,
     /// Frames accumulated (capped); fractional after bilinear reprojection.
     pub len: f32,
 }
 
-/// One pixel's history: the metadata and both accumulated signals in one
-/// cache line, so a reprojection tap is one bounds test and one line.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(64))]
-pub(crate) struct Record {
-    pub meta: Meta,
-    pub un: Vec3,
-    pub sn: Vec3,
+/// The fields of one pixel's history, one `f32` plane each (`History`).
+/// The encoded normal's two components are stored as the integers they
+/// are, exactly.
+pub(crate) mod field {
+    pub const DEPTH: usize = 0;
+    pub const PX: usize = 1;
+    pub const PY: usize = 2;
+    pub const PZ: usize = 3;
+    pub const E0: usize = 4;
+    pub const E1: usize = 5;
+    pub const LEN: usize = 6;
+    /// Accumulated first and second moments of the raw per-frame ratio
+    /// (same blend as the signals), for the temporal noise estimate.
+    pub const M1: usize = 7;
+    pub const M2: usize = 8;
+    pub const LU: usize = 9;
+    pub const LU_DIFFUSE: usize = 10;
+    pub const UR: usize = 11;
+    pub const SR: usize = 14;
+    pub const COUNT: usize = 17;
 }
 
-const _: () = assert!(std::mem::size_of::<Record>() == 64);
-
+/// One frame of history, a plane per `field`, stored row by row: image
+/// row `y` of every field is one block of `COUNT * width` values (field
+/// `k` at `k * width`), so the temporal pass writes a row of every field
+/// on its own, and a lane group whose taps are consecutive pixels of one
+/// row (a still camera: every tap; a smooth camera move: most) reads each
+/// field with one load. A pixel without a surface holds zeros: depth 0,
+/// no history to give.
 pub(crate) struct History {
-    pub rec: Vec<Record>,
+    pub data: Vec<f32>,
+    pub width: usize,
 }
 
 impl History {
-    pub fn new(n: usize) -> History {
+    pub fn new(width: usize, height: usize) -> History {
         History {
-            rec: vec![Record::default(); n],
+            data: vec![0.0; field::COUNT * width * height],
+            width,
         }
+    }
+
+    /// Values of one image row of every field.
+    #[inline(always)]
+    pub fn row_len(&self) -> usize {
+        field::COUNT * self.width
+    }
+
+    /// Field `k` of pixel `i` (row-major).
+    #[inline(always)]
+    pub fn get(&self, k: usize, i: usize) -> f32 {
+        let (y, x) = (i / self.width, i % self.width);
+        self.data[y * self.row_len() + k * self.width + x]
+    }
+
+    /// Pixels held.
+    pub fn len(&self) -> usize {
+        self.data.len() / field::COUNT
     }
 
     /// Forget everything: every tap of the next reprojection fails its depth test.
     pub fn clear(&mut self) {
-        self.rec.fill(Record::default());
+        self.data.fill(0.0);
     }
 }
 

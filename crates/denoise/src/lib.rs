@@ -225,8 +225,8 @@ impl Denoiser {
         Denoiser {
             width,
             height,
-            prev: history::History::new(n),
-            cur: history::History::new(n),
+            prev: history::History::new(width as usize, height as usize),
+            cur: history::History::new(width as usize, height as usize),
             guides: planes(width, height, 0, &spatial::GUIDE_BORDER),
             acc: planes(width, height, 0, &spatial::SIGNAL_BORDER),
             ping: planes(width, height, 0, &spatial::SIGNAL_BORDER),
@@ -291,7 +291,9 @@ impl Denoiser {
     /// call; 0 where there is no surface. For debug views and tests.
     pub fn history_len(&self) -> Vec<f32> {
         // After a call the freshest history sits in `prev` (swapped at the end).
-        self.prev.rec.iter().map(|r| r.meta.len).collect()
+        (0..self.prev.len())
+            .map(|i| self.prev.get(history::field::LEN, i))
+            .collect()
     }
 
     /// Denoises `un` and `sn` in place with identical per-pixel weights (the
@@ -317,11 +319,11 @@ impl Denoiser {
     pub fn settled_tiles(&self, min_history: f32) -> Vec<u8> {
         let (w, h) = (self.width as usize, self.height as usize);
         let tw = self.tiles.columns();
-        if self.prev.rec.len() != w * h || self.tiles.count() == 0 {
+        if self.prev.len() != w * h || self.tiles.count() == 0 {
             return Vec::new();
         }
         // After a call the freshest history sits in `prev`.
-        let rec = &self.prev.rec;
+        let prev = &self.prev;
         (0..self.tiles.count())
             .into_par_iter()
             .map(|t| {
@@ -331,8 +333,9 @@ impl Denoiser {
                 }
                 let long = (ty * TILE..((ty + 1) * TILE).min(h)).all(|y| {
                     (tx * TILE..((tx + 1) * TILE).min(w)).all(|x| {
-                        let m = &rec[y * w + x].meta;
-                        m.depth <= 0.0 || m.len >= min_history
+                        let i = y * w + x;
+                        prev.get(history::field::DEPTH, i) <= 0.0
+                            || prev.get(history::field::LEN, i) >= min_history
                     })
                 });
                 if long { self.tiles.class(t) } else { 0 }

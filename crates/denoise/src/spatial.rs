@@ -19,8 +19,8 @@
 //! side: a tap that leaves the frame lands on it and gets weight 0 like any
 //! tap without a surface, so the tap loop has no bounds test.
 
+use super::DenoiseSettings;
 use super::tiles::{TILE, Tiles};
-use super::{DenoiseSettings, Lobe};
 use glam::Vec3;
 use penumbra_isa::{self as isa, Kernel};
 use penumbra_scene::color::LUMA;
@@ -168,20 +168,20 @@ pub(crate) fn pad_for(levels: u8) -> usize {
     step.max(LANES).div_ceil(LANES) * LANES
 }
 
-/// The lobe term's weight at a pixel: how sharp its specular lobe is,
-/// times the lobe scale, times how much of `U` its own samples carry
-/// (`confidence`). Sanitised: 0 unless finite and positive.
+/// The lobe term's weight per lane: how sharp its specular lobe is
+/// (`sharpness`), times the lobe scale, times how much of `U` its own
+/// samples carry (`confidence`). Sanitised: 0 unless finite and positive.
 #[inline(always)]
-pub(crate) fn lobe_weight(lobe: &Lobe, lobe_scale: f32, confidence: f32) -> f32 {
-    let k = lobe.sharpness * (lobe_scale * confidence);
-    if lobe.sharpness > 0.0 && k.is_finite() {
-        k
-    } else {
-        0.0
-    }
+pub(crate) fn lobe_weight(sharpness: V, lobe_scale: f32, confidence: V) -> V {
+    let k = sharpness * (V::splat(lobe_scale) * confidence);
+    sharpness
+        .gt(V::splat(0.0))
+        .and(k.abs().lt(V::splat(f32::INFINITY)))
+        .select(k, V::splat(0.0))
 }
 
-/// Luminance of `U_N` over that of `U`, in [0, 1]; 1 where `U` is dark.
+/// Luminance of `U_N` over that of `U` per lane, in [0, 1]; 1 where `U` is
+/// dark.
 ///
 /// A pixel whose samples carry almost none of `U` (a light sample far off a
 /// near-mirror's lobe: positive but negligible weight) still has a ratio of
@@ -189,12 +189,12 @@ pub(crate) fn lobe_weight(lobe: &Lobe, lobe_scale: f32, confidence: f32) -> f32 
 /// every neighbour out and leave that value. Its lobe term is scaled down so
 /// the neighbours, weighted by their own `U_N`, decide.
 #[inline(always)]
-pub(crate) fn confidence(un_luminance: f32, lu: f32) -> f32 {
-    if lu > 1e-30 {
-        (un_luminance / lu).clamp(0.0, 1.0)
-    } else {
-        1.0
-    }
+pub(crate) fn confidence(un_luminance: V, lu: V) -> V {
+    let ok = lu.gt(V::splat(1e-30));
+    ok.select(
+        lanes::clamp01(un_luminance / ok.select(lu, V::splat(1.0))),
+        V::splat(1.0),
+    )
 }
 
 /// Per-frame inputs of the filter besides the signals.
@@ -441,6 +441,17 @@ pub(crate) mod lanes {
         pub fn lt(self, o: V) -> M {
             M(each(|l| bit(self.0[l] < o.0[l])))
         }
+        #[inline(always)]
+        pub fn eq(self, o: V) -> M {
+            M(each(|l| bit(self.0[l] == o.0[l])))
+        }
+    }
+
+    /// `f32::clamp(v, 0, 1)` per lane (a NaN stays NaN).
+    #[inline(always)]
+    pub fn clamp01(v: V) -> V {
+        let v = v.lt(V::splat(0.0)).select(V::splat(0.0), v);
+        v.gt(V::splat(1.0)).select(V::splat(1.0), v)
     }
 
     impl M {

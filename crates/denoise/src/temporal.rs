@@ -5,43 +5,38 @@
 //! different sample sets and silently break the ratio, so the factor depends
 //! only on the history length, never on the signal values.
 
-use super::history::{History, Meta, Record, decode_normal, encode_normal};
+use super::history::{History, Meta, decode_normal, field};
 use super::noise;
-use super::spatial::lanes::{M, V, each};
+use super::spatial::lanes::{self, M, V, each};
 use super::spatial::{self, LANES, Planes};
 use super::tiles::{self, TILE};
-use super::{DenoiseSettings, GuideBuffers, luminance, luminance_ratio};
+use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::{Vec2, Vec3};
 use penumbra_isa::{self as isa, Kernel};
+use penumbra_scene::color::LUMA;
 use rayon::prelude::*;
 
-/// One pixel's inputs to the reprojection and the blend.
-#[derive(Clone, Copy, Default)]
-struct Pixel {
-    surface: bool,
+/// A lane group's inputs to the reprojection and the blend, a lane per
+/// pixel; zeros in a lane without a surface.
+#[derive(Default)]
+struct Group {
+    surface: [bool; LANES],
     /// Reprojection asked for (temporal on, motion vector valid).
-    want: bool,
-    skipped: u8,
-    depth: f32,
-    u_in: Vec3,
-    s_in: Vec3,
-    /// Raw ratio of this frame.
-    r: f32,
-    lu: f32,
-    lu_diffuse: f32,
-    pos: Vec3,
-    normal: Vec3,
+    want: [bool; LANES],
+    skipped: [u8; LANES],
+    depth: V,
+    u_in: [V; 3],
+    s_in: [V; 3],
+    lu: V,
+    lu_diffuse: V,
+    pos: [V; 3],
+    normal: [V; 3],
     /// Motion vector's end in the previous frame.
-    at: Vec2,
-}
-
-/// History reprojected to one pixel.
-struct History1 {
-    un: Vec3,
-    sn: Vec3,
-    m1: f32,
-    m2: f32,
-    len: f32,
+    at: [V; 2],
+    /// The specular lobe's mirror direction (zero where not finite) and
+    /// sharpness.
+    dir: [V; 3],
+    sharpness: V,
 }
 
 /// History reprojected to a lane group: per lane whether there is one, and
@@ -65,19 +60,6 @@ struct Reprojected {
 /// own history again: its records hold the same surfaces, so its taps
 /// would pass and fail alike.
 pub type Taps = u8;
-
-impl Reprojected {
-    #[inline(always)]
-    fn pixel(&self, l: usize) -> Option<History1> {
-        self.ok[l].then(|| History1 {
-            un: Vec3::new(self.un[0].0[l], self.un[1].0[l], self.un[2].0[l]),
-            sn: Vec3::new(self.sn[0].0[l], self.sn[1].0[l], self.sn[2].0[l]),
-            m1: self.m1.0[l],
-            m2: self.m2.0[l],
-            len: self.len.0[l],
-        })
-    }
-}
 
 /// Non-finite or negative input would poison the history (the denoiser's
 /// or the resolve's) for many frames; treat it as no light.
@@ -110,8 +92,9 @@ pub(crate) fn accumulate(
     let (gs, gp) = (guides.stride, guides.pad);
     let (ss, sp) = (acc.stride, acc.pad);
     let (ms, mp) = (moments.stride, moments.pad);
+    let hrow = cur.row_len();
     (
-        cur.rec.par_chunks_mut(w),
+        cur.data.par_chunks_mut(hrow),
         (guides.par_rows_mut(), acc.par_rows_mut()),
         moments.par_rows_mut(),
         row_class.par_chunks_mut(tw),
@@ -149,8 +132,8 @@ struct Row<'a, 'g> {
     unsampled: &'a [u8],
     settings: &'a DenoiseSettings,
     y: usize,
-    /// The row's history records.
-    h: &'a mut [Record],
+    /// The row's block of the history's fields (`History`).
+    h: &'a mut [f32],
     /// The row's blocks of the guide planes and of the accumulated signal
     /// planes.
     gd: &'a mut [f32],
@@ -194,30 +177,17 @@ impl Kernel for Row<'_, '_> {
         // Tile classification rides along: this pass reads every pixel
         // anyway, a separate pass would read them all again.
         class.fill(tiles::UNIFORM);
+        let zero = V::splat(0.0);
         for x0 in (0..w).step_by(LANES) {
             let n = LANES.min(w - x0);
-            let mut px = [Pixel::default(); LANES];
-            // This group's guides and accumulated signals, stored to the
-            // planes at once; a pixel without a surface keeps the border
-            // values (every tap gives it weight 0, the filter never
-            // writes it).
-            let mut gv = [[0.0f32; LANES]; spatial::guide::COUNT];
-            for (v, &b) in gv.iter_mut().zip(&spatial::GUIDE_BORDER) {
-                *v = [b; LANES];
-            }
-            let mut sv = [[0.0f32; LANES]; spatial::signal::COUNT];
-            for (v, &b) in sv.iter_mut().zip(&spatial::SIGNAL_BORDER) {
-                *v = [b; LANES];
-            }
-            let mut nv = [[0.0f32; LANES]; noise::COUNT];
-            for (l, p) in px.iter_mut().enumerate().take(n) {
+            let mut px = Group::default();
+            for l in 0..n {
                 let x = x0 + l;
                 let i = y * w + x;
                 let d = guide.depth[i];
                 if !(d > 0.0 && d.is_finite()) {
                     // No surface: pass through untouched, keep no history
-                    // (a finite one: reprojection reads it unmasked).
-                    h[x] = Record::default();
+                    // (zeros: reprojection reads them unmasked).
                     continue;
                 }
                 // A pixel of a tile that drew no samples this frame keeps
@@ -234,87 +204,7 @@ impl Kernel for Row<'_, '_> {
                 };
                 let lu = luminance(guide.u[i]);
                 let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
-                let share = guide.lobe.get(i).map_or(0.0, |l| l.share);
-                *p = Pixel {
-                    surface: true,
-                    want: settings.temporal && guide.prev_valid[i],
-                    skipped,
-                    depth: d,
-                    u_in,
-                    s_in,
-                    r: luminance_ratio(s_in, u_in),
-                    lu,
-                    lu_diffuse: lu * (1.0 - share),
-                    pos: guide.position[i],
-                    normal: guide.normal[i],
-                    at: guide.prev_pixel[i],
-                };
-            }
-            let hist = if px.iter().any(|p| p.want) {
-                reproject_lanes(prev, guide.width, guide.height, &px, settings)
-            } else {
-                Reprojected::default()
-            };
-            if let Some(taps) = taps.as_deref_mut() {
-                taps[x0..x0 + n].copy_from_slice(&hist.passed[..n]);
-            }
-            for (l, p) in px.iter().enumerate().take(n) {
-                if !p.surface {
-                    continue;
-                }
-                let x = x0 + l;
-                let i = y * w + x;
-                let Pixel {
-                    skipped,
-                    depth: d,
-                    u_in,
-                    s_in,
-                    r,
-                    lu,
-                    lu_diffuse,
-                    pos,
-                    normal,
-                    ..
-                } = *p;
-                let (acc_u, acc_s, m1, m2, len) = match hist.pixel(l) {
-                    Some(h) if skipped != 0 => (h.un, h.sn, h.m1, h.m2, h.len),
-                    Some(h) => {
-                        let len = (h.len + 1.0).min(cap);
-                        // alpha = max(1 / (len_prev + 1), 1 / cap), the
-                        // same for both signals and all channels.
-                        let a = 1.0 / len;
-                        (
-                            h.un + (u_in - h.un) * a,
-                            h.sn + (s_in - h.sn) * a,
-                            h.m1 + (r - h.m1) * a,
-                            h.m2 + (r * r - h.m2) * a,
-                            len,
-                        )
-                    }
-                    None => (u_in, s_in, r, r * r, 1.0),
-                };
-                un[x] = acc_u;
-                sn[x] = acc_s;
-                h[x] = Record {
-                    meta: Meta {
-                        pos,
-                        normal: encode_normal(normal),
-                        depth: d,
-                        lu,
-                        lu_diffuse,
-                        m1,
-                        m2,
-                        len,
-                    },
-                    un: acc_u,
-                    sn: acc_s,
-                };
                 let lobe = guide.lobe.get(i).copied().unwrap_or_default();
-                let lobe_k = spatial::lobe_weight(
-                    &lobe,
-                    settings.lobe_scale,
-                    spatial::confidence(luminance(acc_u), lu),
-                );
                 // Taps compare their own direction with this one whatever
                 // this pixel's weight; keep it finite.
                 let dir = if lobe.dir.is_finite() {
@@ -322,40 +212,243 @@ impl Kernel for Row<'_, '_> {
                 } else {
                     Vec3::ZERO
                 };
-                let g = [
-                    pos.x, pos.y, pos.z, normal.x, normal.y, normal.z, lu, dir.x, dir.y, dir.z,
-                    lobe_k,
-                ];
-                for (k, v) in g.into_iter().enumerate() {
-                    gv[k][l] = v;
+                let (pos, normal, at) = (guide.position[i], guide.normal[i], guide.prev_pixel[i]);
+                px.surface[l] = true;
+                px.want[l] = settings.temporal && guide.prev_valid[i];
+                px.skipped[l] = skipped;
+                px.depth.0[l] = d;
+                px.lu.0[l] = lu;
+                px.lu_diffuse.0[l] = lu * (1.0 - lobe.share);
+                px.sharpness.0[l] = lobe.sharpness;
+                for c in 0..3 {
+                    px.u_in[c].0[l] = u_in[c];
+                    px.s_in[c].0[l] = s_in[c];
+                    px.pos[c].0[l] = pos[c];
+                    px.normal[c].0[l] = normal[c];
+                    px.dir[c].0[l] = dir[c];
                 }
-                let r_acc = luminance_ratio(acc_s, acc_u);
-                let sg = [acc_u.x, acc_u.y, acc_u.z, acc_s.x, acc_s.y, acc_s.z, r_acc];
-                for (k, v) in sg.into_iter().enumerate() {
-                    sv[k][l] = v;
+                px.at[0].0[l] = at.x;
+                px.at[1].0[l] = at.y;
+            }
+            if !px.surface.iter().any(|&s| s) {
+                // A group without a surface (sky) blends nothing: its
+                // history, guides, signals and moments take their empty
+                // values, as its lanes would one by one.
+                for k in 0..field::COUNT {
+                    put(h, k * w + x0, &[0.0; LANES], n);
                 }
-                // Per `noise`'s planes; `len` is positive here (1 or more
-                // up to rounding), which marks the pixel as a surface there.
-                let v = [r, (m2 - m1 * m1).max(0.0), len];
-                for (k, v) in v.into_iter().enumerate() {
-                    nv[k][l] = v;
+                for (k, &b) in spatial::GUIDE_BORDER.iter().enumerate() {
+                    put(gd, k * gs + gp + x0, &[b; LANES], n);
                 }
-                class[x / TILE] &= tiles::pixel_class(acc_u, acc_s);
+                for (k, &b) in spatial::SIGNAL_BORDER.iter().enumerate() {
+                    put(ar, k * ss + sp + x0, &[b; LANES], n);
+                }
+                for k in 0..noise::COUNT {
+                    put(raw, k * ms + mp + x0, &[0.0; LANES], n);
+                }
+                if let Some(taps) = taps.as_deref_mut() {
+                    taps[x0..x0 + n].fill(0);
+                }
+                continue;
             }
-            for (k, v) in gv.iter().enumerate() {
-                let at = k * gs + gp + x0;
-                put(gd, at, v, n);
+            let hist = if px.want.iter().any(|&b| b) {
+                reproject_lanes(prev, guide.width, guide.height, &px, settings)
+            } else {
+                Reprojected::default()
+            };
+            if let Some(taps) = taps.as_deref_mut() {
+                taps[x0..x0 + n].copy_from_slice(&hist.passed[..n]);
             }
-            for (k, v) in sv.iter().enumerate() {
-                let at = k * ss + sp + x0;
-                put(ar, at, v, n);
+            let surface = M::from_fn(|l| px.surface[l]);
+            let r = ratio_lanes(&px.s_in, &px.u_in);
+            // The blend: alpha = max(1 / (len_prev + 1), 1 / cap), the
+            // same for both signals and all channels; a skipped pixel
+            // keeps its history as it is, a pixel without one starts it.
+            let held = M::from_fn(|l| hist.ok[l]);
+            let keep = held.and(M::from_fn(|l| px.skipped[l] != 0));
+            let len_b = (hist.len + 1.0).min(V::splat(cap));
+            let a = V::splat(1.0) / held.select(len_b, V::splat(1.0));
+            let mix = Mix { held, keep, a };
+            let acc_u: [V; 3] = [
+                mix.of(hist.un[0], px.u_in[0]),
+                mix.of(hist.un[1], px.u_in[1]),
+                mix.of(hist.un[2], px.u_in[2]),
+            ];
+            let acc_s: [V; 3] = [
+                mix.of(hist.sn[0], px.s_in[0]),
+                mix.of(hist.sn[1], px.s_in[1]),
+                mix.of(hist.sn[2], px.s_in[2]),
+            ];
+            let m1 = mix.of(hist.m1, r);
+            let m2 = mix.of(hist.m2, r * r);
+            let len = keep.select(hist.len, held.select(len_b, V::splat(1.0)));
+            for l in 0..n {
+                if px.surface[l] {
+                    un[x0 + l] = Vec3::new(acc_u[0].0[l], acc_u[1].0[l], acc_u[2].0[l]);
+                    sn[x0 + l] = Vec3::new(acc_s[0].0[l], acc_s[1].0[l], acc_s[2].0[l]);
+                }
             }
-            for (k, v) in nv.iter().enumerate() {
-                let at = k * ms + mp + x0;
-                put(raw, at, v, n);
+            // The history, zeros where there is no surface. Written out
+            // field by field: an array of lanes to loop over is copied
+            // through memory first.
+            let (e0, e1) = encode_normal_lanes(&px.normal);
+            macro_rules! history {
+                ($($k:expr => $v:expr),* $(,)?) => {
+                    $(put(h, $k * w + x0, &surface.select($v, zero).0, n);)*
+                };
             }
+            history!(
+                field::DEPTH => px.depth,
+                field::PX => px.pos[0],
+                field::PY => px.pos[1],
+                field::PZ => px.pos[2],
+                field::E0 => e0,
+                field::E1 => e1,
+                field::LEN => len,
+                field::M1 => m1,
+                field::M2 => m2,
+                field::LU => px.lu,
+                field::LU_DIFFUSE => px.lu_diffuse,
+                field::UR => acc_u[0],
+                field::UR + 1 => acc_u[1],
+                field::UR + 2 => acc_u[2],
+                field::SR => acc_s[0],
+                field::SR + 1 => acc_s[1],
+                field::SR + 2 => acc_s[2],
+            );
+            // The spatial filter's guides and accumulated signals; a pixel
+            // without a surface keeps the border values (every tap gives
+            // it weight 0, the filter never writes it).
+            let lobe_k = spatial::lobe_weight(
+                px.sharpness,
+                settings.lobe_scale,
+                spatial::confidence(luma(&acc_u), px.lu),
+            );
+            macro_rules! guides {
+                ($($k:expr => $v:expr),* $(,)?) => {
+                    $({
+                        let v = surface.select($v, V::splat(spatial::GUIDE_BORDER[$k]));
+                        put(gd, $k * gs + gp + x0, &v.0, n);
+                    })*
+                };
+            }
+            {
+                use spatial::guide::*;
+                guides!(
+                    PX => px.pos[0],
+                    PY => px.pos[1],
+                    PZ => px.pos[2],
+                    NX => px.normal[0],
+                    NY => px.normal[1],
+                    NZ => px.normal[2],
+                    LU => px.lu,
+                    DX => px.dir[0],
+                    DY => px.dir[1],
+                    DZ => px.dir[2],
+                    LOBE_K => lobe_k,
+                );
+            }
+            let r_acc = ratio_lanes(&acc_s, &acc_u);
+            macro_rules! signals {
+                ($($k:expr => $v:expr),* $(,)?) => {
+                    $({
+                        let v = surface.select($v, V::splat(spatial::SIGNAL_BORDER[$k]));
+                        put(ar, $k * ss + sp + x0, &v.0, n);
+                    })*
+                };
+            }
+            {
+                use spatial::signal::*;
+                signals!(
+                    UR => acc_u[0],
+                    UR + 1 => acc_u[1],
+                    UR + 2 => acc_u[2],
+                    SR => acc_s[0],
+                    SR + 1 => acc_s[1],
+                    SR + 2 => acc_s[2],
+                    RATIO => r_acc,
+                );
+            }
+            // Per `noise`'s planes; `len` is positive on a surface (1 or
+            // more up to rounding), which marks the pixel as one there.
+            macro_rules! moments {
+                ($($k:expr => $v:expr),* $(,)?) => {
+                    $(put(raw, $k * ms + mp + x0, &surface.select($v, zero).0, n);)*
+                };
+            }
+            moments!(
+                noise::RAW => r,
+                noise::VAR_T => (m2 - m1 * m1).max(zero),
+                noise::LEN => len,
+            );
+            // One tile row: the group's pixels share a tile.
+            class[x0 / TILE] &= tiles::group_class(&px.surface[..n], &acc_u, &acc_s);
         }
     }
+}
+
+/// The temporal blend of a lane group, one factor per lane for every
+/// signal: `h + (v - h) a` where the lane holds a history, `v` where it
+/// starts one, `h` itself where its tile was skipped (`keep`).
+struct Mix {
+    held: M,
+    keep: M,
+    a: V,
+}
+
+impl Mix {
+    #[inline(always)]
+    fn of(&self, h: V, v: V) -> V {
+        let b = self.held.select(h + (v - h) * self.a, v);
+        self.keep.select(h, b)
+    }
+}
+
+/// Luminance per lane, in `luminance`'s order of operations.
+#[inline(always)]
+fn luma(c: &[V; 3]) -> V {
+    c[0] * LUMA.x + c[1] * LUMA.y + c[2] * LUMA.z
+}
+
+/// `luminance_ratio` per lane.
+#[inline(always)]
+fn ratio_lanes(s: &[V; 3], u: &[V; 3]) -> V {
+    let lu = luma(u);
+    let ok = lu
+        .gt(V::splat(1e-30))
+        .and(lu.abs().lt(V::splat(f32::INFINITY)));
+    let q = luma(s) / ok.select(lu, V::splat(1.0));
+    ok.select(lanes::clamp01(q), V::splat(1.0))
+}
+
+/// `encode_normal` per lane, the two components as the integers they are.
+#[inline(always)]
+fn encode_normal_lanes(n: &[V; 3]) -> (V, V) {
+    let zero = V::splat(0.0);
+    let one = V::splat(1.0);
+    let l1 = n[0].abs() + n[1].abs() + n[2].abs();
+    let ok = l1.gt(zero).and(l1.abs().lt(V::splat(f32::INFINITY)));
+    let (px, py) = (n[0] / l1, n[1] / l1);
+    let sign = |v: V| v.ge(zero).select(one, V::splat(-1.0));
+    let wrap = n[2].lt(zero);
+    let wx = (one - py.abs()) * sign(px);
+    let wy = (one - px.abs()) * sign(py);
+    let (px, py) = (wrap.select(wx, px), wrap.select(wy, py));
+    (ok.select(quantize(px), zero), ok.select(quantize(py), zero))
+}
+
+/// `(v * 32767 + copysign(0.5, v)) as i16` per lane for `v` in [-1, 1], as
+/// an `f32`: the magnitude truncated exactly (below 2^23, adding and
+/// taking away 2^23 rounds to an integer; a rounding up is taken back).
+#[inline(always)]
+fn quantize(v: V) -> V {
+    let zero = V::splat(0.0);
+    let m = (v * 32767.0).abs() + 0.5;
+    let big = V::splat(8_388_608.0);
+    let r = (m + big) - big;
+    let t = r.gt(m).select(r - 1.0, r);
+    // `0 - t`: a zero stays +0, as the integer's conversion gives it.
+    v.lt(zero).select(zero - t, t)
 }
 
 /// Stores the first `n` lanes of `v` at `at`: a whole group as one fixed
@@ -380,34 +473,17 @@ fn reproject_lanes(
     prev: &History,
     width: u32,
     height: u32,
-    px: &[Pixel; LANES],
+    px: &Group,
     s: &DenoiseSettings,
 ) -> Reprojected {
-    // One field of every lane's pixel.
-    macro_rules! lane {
-        ($p:ident => $e:expr) => {
-            V(each(|l| {
-                let $p = &px[l];
-                $e
-            }))
-        };
-    }
-    let (ax, ay) = (lane!(p => p.at.x - 0.5), lane!(p => p.at.y - 0.5));
-    let depth = lane!(p => p.depth);
-    let (pos_x, pos_y, pos_z) = (
-        lane!(p => p.pos.x),
-        lane!(p => p.pos.y),
-        lane!(p => p.pos.z),
-    );
-    let (nx, ny, nz) = (
-        lane!(p => p.normal.x),
-        lane!(p => p.normal.y),
-        lane!(p => p.normal.z),
-    );
+    let (ax, ay) = (px.at[0] - 0.5, px.at[1] - 0.5);
+    let depth = px.depth;
+    let [pos_x, pos_y, pos_z] = px.pos;
+    let [nx, ny, nz] = px.normal;
     // Finite and not far off-screen (no overflow in the casts).
     let lim = V::splat(1e9);
     let ok0: [bool; LANES] =
-        each(|l| px[l].want && ax.0[l].abs() <= lim.0[l] && ay.0[l].abs() <= lim.0[l]);
+        each(|l| px.want[l] && ax.0[l].abs() <= lim.0[l] && ay.0[l].abs() <= lim.0[l]);
     let ax = M::from_fn(|l| ok0[l]).select(ax, V::splat(0.0));
     let ay = M::from_fn(|l| ok0[l]).select(ay, V::splat(0.0));
     let (x0, y0) = (floor_lanes(ax), floor_lanes(ay));
@@ -425,6 +501,9 @@ fn reproject_lanes(
         width.min(i32::MAX as u32) as i32,
         height.min(i32::MAX as u32) as i32,
     );
+    // A field's row, and a row of every field (`History`'s layout).
+    let stride = prev.width;
+    let row = prev.row_len();
     let zero = V::splat(0.0);
     let mut wsum = zero;
     let mut un = [zero; 3];
@@ -432,6 +511,8 @@ fn reproject_lanes(
     let (mut m1, mut m2, mut len, mut lu_prev, mut lud_prev) = (zero, zero, zero, zero, zero);
     let mut passed = [0u8; LANES];
     for (k, (dx, dy, wt)) in taps.into_iter().enumerate() {
+        // Per lane, where its tap's record starts (`History`'s layout):
+        // field `k` at `j + k * width`.
         let mut j = [0usize; LANES];
         let mut inside = [false; LANES];
         for l in 0..LANES {
@@ -439,78 +520,36 @@ fn reproject_lanes(
             // `&`, not `&&`: no branch per lane.
             inside[l] = ok0[l] & (wt.0[l] > 0.0) & (tx >= 0) & (ty >= 0) & (tx < w) & (ty < h);
             let (cx, cy) = if inside[l] { (tx, ty) } else { (0, 0) };
-            j[l] = cy as usize * w as usize + cx as usize;
+            j[l] = cy as usize * row + cx as usize;
         }
         // A tap no lane reads (a still camera reprojects onto whole
         // pixels: one tap of four) would add only zeros.
         if !inside.iter().any(|&b| b) {
             continue;
         }
-        // The records of the taps, per lane.
-        let mut f = [[0.0f32; LANES]; 17];
-        for l in 0..LANES {
-            let r = &prev.rec[j[l]];
-            let (m, u, sg) = (&r.meta, r.un, r.sn);
-            let v = [
-                m.depth,
-                m.pos.x,
-                m.pos.y,
-                m.pos.z,
-                m.normal[0] as f32,
-                m.normal[1] as f32,
-                m.len,
-                m.m1,
-                m.m2,
-                m.lu,
-                m.lu_diffuse,
-                u.x,
-                u.y,
-                u.z,
-                sg.x,
-                sg.y,
-                sg.z,
-            ];
-            for (k, v) in v.into_iter().enumerate() {
-                f[k][l] = v;
+        // The records of the taps: one load per field where the lanes'
+        // taps are consecutive pixels of a row, else a value per lane.
+        let consecutive = (0..LANES).all(|l| inside[l] & (j[l] == j[0] + l));
+        // Plain loops: `array::from_fn` is compiled out of line, at
+        // baseline whatever level its caller runs (`isa`).
+        let mut f = [V::default(); field::COUNT];
+        if consecutive {
+            for (k, f) in f.iter_mut().enumerate() {
+                *f = V::load(&prev.data, j[0] + k * stride);
+            }
+        } else {
+            for (k, f) in f.iter_mut().enumerate() {
+                for (v, &j) in f.0.iter_mut().zip(&j) {
+                    *v = prev.data[j + k * stride];
+                }
             }
         }
-        let [
-            md,
-            mx,
-            my,
-            mz,
-            e0,
-            e1,
-            mlen,
-            mm1,
-            mm2,
-            mlu,
-            mlud,
-            ur,
-            ug,
-            ub,
-            sr,
-            sg,
-            sz,
-        ] = [
-            V(f[0]),
-            V(f[1]),
-            V(f[2]),
-            V(f[3]),
-            V(f[4]),
-            V(f[5]),
-            V(f[6]),
-            V(f[7]),
-            V(f[8]),
-            V(f[9]),
-            V(f[10]),
-            V(f[11]),
-            V(f[12]),
-            V(f[13]),
-            V(f[14]),
-            V(f[15]),
-            V(f[16]),
-        ];
+        let (md, mlen, mm1, mm2) = (f[field::DEPTH], f[field::LEN], f[field::M1], f[field::M2]);
+        let (mx, my, mz) = (f[field::PX], f[field::PY], f[field::PZ]);
+        let (e0, e1) = (f[field::E0], f[field::E1]);
+        let (mlu, mlud) = (f[field::LU], f[field::LU_DIFFUSE]);
+        let (ur, ug, ub) = (f[field::UR], f[field::UR + 1], f[field::UR + 2]);
+        let (sr, sg, sz) = (f[field::SR], f[field::SR + 1], f[field::SR + 2]);
         // `same_surface`, lane for lane.
         let plane = nx * (mx - pos_x) + ny * (my - pos_y) + nz * (mz - pos_z);
         let a = decode_normal_lanes(e0, e1);
@@ -542,7 +581,7 @@ fn reproject_lanes(
     let inv = one / enough.select(wsum, one);
     let mut ok: [bool; LANES] = each(|l| ok0[l] && wsum.0[l] >= 1e-3);
     if s.light_test {
-        let now = (lane!(p => p.lu), lane!(p => p.lu_diffuse));
+        let now = (px.lu, px.lu_diffuse);
         let changed = light_changed_lanes(now, (lu_prev * inv, lud_prev * inv), s.u_change);
         for l in 0..LANES {
             ok[l] &= !changed[l];

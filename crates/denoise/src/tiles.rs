@@ -8,7 +8,7 @@
 //! exact 0 or 1, which is what a filter over an all-0 or all-1 neighbourhood
 //! would give.
 
-use glam::Vec3;
+use super::spatial::lanes::{M, V};
 use rayon::prelude::*;
 
 /// Tile edge in pixels.
@@ -132,17 +132,22 @@ impl Tiles {
     }
 }
 
-/// Exact tests on purpose: the ratio of a skipped pixel must be exactly what
-/// filtering would give, and only exact 0 and 1 guarantee that. A pixel with
-/// no light at all (both zero) fits either class.
-#[inline]
-pub(crate) fn pixel_class(un: Vec3, sn: Vec3) -> u8 {
-    let mut c = 0;
-    if sn == un {
-        c |= LIT;
+/// The class bits all of a lane group's surface pixels share (`surface`
+/// per lane; `UNIFORM` when it has none): `LIT` where `S_N == U_N`, `DARK`
+/// where `S_N` is 0. Exact tests on purpose: the ratio of a skipped pixel
+/// must be exactly what filtering would give, and only exact 0 and 1
+/// guarantee that. A pixel with no light at all (both zero) fits either
+/// class.
+#[inline(always)]
+pub(crate) fn group_class(surface: &[bool], un: &[V; 3], sn: &[V; 3]) -> u8 {
+    let zero = V::splat(0.0);
+    let lit = (0..3).fold(M::from_fn(|_| true), |m, c| m.and(sn[c].eq(un[c])));
+    let dark = (0..3).fold(M::from_fn(|_| true), |m, c| m.and(sn[c].eq(zero)));
+    let mut class = UNIFORM;
+    for (l, &s) in surface.iter().enumerate() {
+        if s {
+            class &= (u8::from(lit.lane(l)) * LIT) | (u8::from(dark.lane(l)) * DARK);
+        }
     }
-    if sn == Vec3::ZERO {
-        c |= DARK;
-    }
-    c
+    class
 }
