@@ -477,6 +477,11 @@ pub(crate) mod lanes {
         pub fn lane(self, l: usize) -> bool {
             self.0[l] != 0
         }
+        /// Whether every lane is set.
+        #[inline(always)]
+        pub fn all(self) -> bool {
+            self.0.iter().all(|&b| b != 0)
+        }
     }
 
     macro_rules! binop {

@@ -252,7 +252,7 @@ impl Kernel for Row<'_, '_> {
                 continue;
             }
             let hist = if px.want.iter().any(|&b| b) {
-                reproject_lanes(prev, guide.width, guide.height, &px, settings)
+                reproject_lanes(prev, guide.width, guide.height, (x0, y), &px, settings)
             } else {
                 Reprojected::default()
             };
@@ -473,6 +473,7 @@ fn reproject_lanes(
     prev: &History,
     width: u32,
     height: u32,
+    (gx, gy): (usize, usize),
     px: &Group,
     s: &DenoiseSettings,
 ) -> Reprojected {
@@ -486,7 +487,20 @@ fn reproject_lanes(
         each(|l| px.want[l] && ax.0[l].abs() <= lim.0[l] && ay.0[l].abs() <= lim.0[l]);
     let ax = M::from_fn(|l| ok0[l]).select(ax, V::splat(0.0));
     let ay = M::from_fn(|l| ok0[l]).select(ay, V::splat(0.0));
-    let (x0, y0) = (floor_lanes(ax), floor_lanes(ay));
+    // Every lane at its own pixel's centre (a still camera's exact
+    // motion): the taps are the group's own pixels, the first at weight 1,
+    // the others at 0, as the integer arithmetic below would find them.
+    // (Columns and rows below 2^24 are exact in `f32`.)
+    let own = gx + LANES <= 1 << 24
+        && gy < 1 << 24
+        && ok0.iter().all(|&b| b)
+        && ax.eq(V(each(|l| (gx + l) as f32))).all()
+        && ay.eq(V::splat(gy as f32)).all();
+    let (x0, y0) = if own {
+        (each(|l| (gx + l) as i32), [gy as i32; LANES])
+    } else {
+        (floor_lanes(ax), floor_lanes(ay))
+    };
     let fx = ax - V(each(|l| x0[l] as f32));
     let fy = ay - V(each(|l| y0[l] as f32));
     let one = V::splat(1.0);
@@ -515,12 +529,20 @@ fn reproject_lanes(
         // field `k` at `j + k * width`.
         let mut j = [0usize; LANES];
         let mut inside = [false; LANES];
-        for l in 0..LANES {
-            let (tx, ty) = (x0[l] + dx, y0[l] + dy);
-            // `&`, not `&&`: no branch per lane.
-            inside[l] = ok0[l] & (wt.0[l] > 0.0) & (tx >= 0) & (ty >= 0) & (tx < w) & (ty < h);
-            let (cx, cy) = if inside[l] { (tx, ty) } else { (0, 0) };
-            j[l] = cy as usize * row + cx as usize;
+        if own {
+            if k > 0 {
+                continue;
+            }
+            j = each(|l| gy * row + gx + l);
+            inside = [true; LANES];
+        } else {
+            for l in 0..LANES {
+                let (tx, ty) = (x0[l] + dx, y0[l] + dy);
+                // `&`, not `&&`: no branch per lane.
+                inside[l] = ok0[l] & (wt.0[l] > 0.0) & (tx >= 0) & (ty >= 0) & (tx < w) & (ty < h);
+                let (cx, cy) = if inside[l] { (tx, ty) } else { (0, 0) };
+                j[l] = cy as usize * row + cx as usize;
+            }
         }
         // A tap no lane reads (a still camera reprojects onto whole
         // pixels: one tap of four) would add only zeros.
