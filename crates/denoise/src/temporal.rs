@@ -776,3 +776,59 @@ fn normal_close(a: Vec3, b: Vec3, min_dot: f32) -> bool {
         d >= min_dot * a.length()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::history::encode_normal;
+
+    /// Normals that reach every branch of the encoding: the axes, the
+    /// octants' edges, the lower hemisphere's wrap, signed zeros, values
+    /// that land on a quantisation step's half, and no normal at all.
+    fn hard_normals() -> Vec<Vec3> {
+        let mut v = vec![
+            Vec3::X,
+            -Vec3::X,
+            Vec3::Y,
+            -Vec3::Y,
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(-0.0, 0.0, 1.0),
+            Vec3::new(0.0, -0.0, -1.0),
+            Vec3::new(0.5 / 32767.0, 1.0, 0.0),
+            Vec3::new(1.5 / 32767.0, -1.0, -0.0),
+            Vec3::ZERO,
+            Vec3::new(f32::NAN, 0.0, 1.0),
+            Vec3::new(f32::INFINITY, 0.0, 1.0),
+            Vec3::new(1e-30, -1e-30, 1e-30),
+        ];
+        // A spiral over the sphere, both hemispheres.
+        for i in 0..4000 {
+            let t = (i as f32 + 0.5) / 4000.0;
+            let z = 1.0 - 2.0 * t;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let a = i as f32 * 2.399_963;
+            v.push(Vec3::new(r * a.cos(), r * a.sin(), z));
+        }
+        v
+    }
+
+    #[test]
+    fn the_lane_encoding_of_a_normal_is_the_scalar_one_bit_for_bit() {
+        for group in hard_normals().chunks(LANES) {
+            let mut n = [V::splat(0.0); 3];
+            for (l, p) in group.iter().enumerate() {
+                for c in 0..3 {
+                    n[c].0[l] = p[c];
+                }
+            }
+            let (e0, e1) = encode_normal_lanes(&n);
+            for (l, p) in group.iter().enumerate() {
+                let [s0, s1] = encode_normal(*p);
+                let lanes = (e0.0[l].to_bits(), e1.0[l].to_bits());
+                let scalar = (f32::from(s0).to_bits(), f32::from(s1).to_bits());
+                assert_eq!(lanes, scalar, "normal {p}");
+            }
+        }
+    }
+}
