@@ -14,7 +14,7 @@
 //! code: the kernel's answer for it means nothing.
 
 use super::lanes8::{
-    D, F, F3, FM, add3, clampc, cross, dot, ds, feq, finite, finite3, fmax, fnan, fs, max_element,
+    F, F3, FM, add3, clampc, cross, dot, ds, feq, finite, finite3, fmax, fnan, fs, max_element,
     mul3, narrow, normalize, scale3, select3, splat3, splat3d, sub3, widen,
 };
 use super::light::{EDGE_SLACK, MAX_TRIS, PreparedLight, SOLID_ANGLE_AREA_FALLBACK};
@@ -279,16 +279,18 @@ fn fan_draw(l: &PreparedLight, i: &DrawLanesIn, plane: F) -> LightDraw {
     let nt = n - 2;
     // Solid angle per triangle, Van Oosterom–Strackee on the f64 vertices
     // relative to p, with the dot products the fan shares.
-    let rel: [F3; 8] = std::array::from_fn(|k| {
-        if k < n {
-            sub3(&splat3(l.verts[k]), &i.p)
-        } else {
-            [fs(0.0); 3]
-        }
-    });
-    let relw: [[D; 3]; 8] =
-        std::array::from_fn(|k| [widen(rel[k][0]), widen(rel[k][1]), widen(rel[k][2])]);
-    let len: [D; 8] = std::array::from_fn(|k| dot(&relw[k], &relw[k]).sqrt());
+    // Plain loops: `array::from_fn` is compiled out of line, at baseline
+    // whatever level the caller runs (`isa`).
+    let mut rel = [[fs(0.0); 3]; 8];
+    for (k, r) in rel.iter_mut().enumerate().take(n) {
+        *r = sub3(&splat3(l.verts[k]), &i.p);
+    }
+    let mut relw = [[widen(fs(0.0)); 3]; 8];
+    let mut len = [widen(fs(0.0)); 8];
+    for k in 0..8 {
+        relw[k] = [widen(rel[k][0]), widen(rel[k][1]), widen(rel[k][2])];
+        len[k] = dot(&relw[k], &relw[k]).sqrt();
+    }
     let mut tri = [fs(0.0); MAX_TRIS];
     let mut omega = fs(0.0);
     for k in 1..n - 1 {

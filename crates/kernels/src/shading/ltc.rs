@@ -24,7 +24,7 @@
 //! there and renormalise); and `err`, the fit's error on polygon integrals
 //! (diagnostic only, see `ltc_fit`).
 
-use super::lanes::{LANES, Lanes, Wide};
+use super::lanes::{LANES, Wide};
 use glam::{DMat3, Mat4, Vec4};
 use std::sync::OnceLock;
 
@@ -310,16 +310,23 @@ impl PackedLtc {
         let y = (Wide::ONE - cos_view.clamp(0.0f32, 1.0f32)).sqrt() * n;
         // x, y in [0, size - 1]: truncation as `cell_coords`' `as usize`.
         let last = self.size as i32 - 2;
-        let i0: [i32; LANES] = std::array::from_fn(|l| (x.0[l] as i32).min(last));
-        let j0: [i32; LANES] = std::array::from_fn(|l| (y.0[l] as i32).min(last));
-        let fx = x - Lanes(i0.map(|i| i as f32));
-        let fy = y - Lanes(j0.map(|j| j as f32));
+        // Plain loops: `[T; N]::map` and `array::from_fn` are compiled out
+        // of line, at baseline whatever level the caller runs (`isa`).
+        let (mut i0, mut j0) = ([0i32; LANES], [0i32; LANES]);
+        let (mut fi, mut fj) = (Wide::ZERO, Wide::ZERO);
+        for l in 0..LANES {
+            i0[l] = (x.0[l] as i32).min(last);
+            j0[l] = (y.0[l] as i32).min(last);
+            fi.0[l] = i0[l] as f32;
+            fj.0[l] = j0[l] as f32;
+        }
+        let (fx, fy) = (x - fi, y - fj);
         // `bilinear_weights` across the lanes.
         let (gx, gy) = (Wide::ONE - fx, Wide::ONE - fy);
         let w = [gx * gy, fx * gy, gx * fy, fx * fy];
         for (l, cell) in out.iter_mut().enumerate() {
             let k = j0[l] as usize * self.size + i0[l] as usize;
-            *cell = self.blend16(k, w.map(|w| w.0[l]));
+            *cell = self.blend16(k, [w[0].0[l], w[1].0[l], w[2].0[l], w[3].0[l]]);
         }
     }
 
@@ -376,17 +383,24 @@ impl CellLanes {
     /// lanes each.
     #[inline(always)]
     pub fn join(lo: &CellLanes, hi: &CellLanes) -> [Wide; 16] {
-        std::array::from_fn(|f| Wide::from_halves(lo.0[f], hi.0[f]))
+        let mut out = [Wide::ZERO; 16];
+        for (f, out) in out.iter_mut().enumerate() {
+            *out = Wide::from_halves(lo.0[f], hi.0[f]);
+        }
+        out
     }
 
     /// Lane `l` from `cells[l]` (as `lookup_packed` gives them): four 4x4
     /// transposes.
-    #[inline]
+    #[inline(always)]
     pub fn from_packed(cells: &[[Vec4; 4]; 4]) -> CellLanes {
         let mut f = [Vec4::ZERO; 16];
         for k in 0..4 {
             let t = Mat4::from_cols(cells[0][k], cells[1][k], cells[2][k], cells[3][k]).transpose();
-            f[4 * k..4 * k + 4].copy_from_slice(&t.to_cols_array_2d().map(Vec4::from_array));
+            f[4 * k] = t.x_axis;
+            f[4 * k + 1] = t.y_axis;
+            f[4 * k + 2] = t.z_axis;
+            f[4 * k + 3] = t.w_axis;
         }
         CellLanes(f)
     }

@@ -264,8 +264,14 @@ impl CorrectionLanes {
     /// time).
     #[inline(always)]
     pub fn new(halves: [(&CellLanes, [Vec4; 2], Vec4); 2]) -> Self {
-        let [lo, hi] = halves.map(|(cells, view, alpha)| half_constants(cells, view, alpha));
-        let c: [Wide; CONSTANTS] = std::array::from_fn(|i| Wide::from_halves(lo[i], hi[i]));
+        // Plain code: `[T; N]::map` and `array::from_fn` are compiled out
+        // of line, at baseline whatever level the caller runs (`isa`).
+        let [(c0, v0, a0), (c1, v1, a1)] = halves;
+        let (lo, hi) = (half_constants(c0, v0, a0), half_constants(c1, v1, a1));
+        let mut c = [Wide::ZERO; CONSTANTS];
+        for (i, c) in c.iter_mut().enumerate() {
+            *c = Wide::from_halves(lo[i], hi[i]);
+        }
         CorrectionLanes {
             ma: [c[0], c[1], c[2], c[3]],
             kda: c[4],

@@ -315,12 +315,21 @@ impl PixelBatch {
     fn set_cells(&mut self, cells: &Cells) {
         const { assert!(LANES == 2 * HALF && HALF == 4, "two Vec4 halves") };
         let lobe = self.lobe;
-        let packed = |l: usize| {
-            let c = &cells.cells[l];
-            [0, 4, 8, 12].map(|k| Vec4::from_slice(&c[k..k + 4]))
-        };
-        let halves =
-            [0, 1].map(|h| CellLanes::from_packed(&[0, 1, 2, 3].map(|l| packed(HALF * h + l))));
+        // Plain loops: `[T; N]::map` and `array::from_fn` are compiled out
+        // of line, at baseline whatever level the caller runs (`isa`).
+        let mut packed = [[[Vec4::ZERO; 4]; HALF]; 2];
+        for (h, half) in packed.iter_mut().enumerate() {
+            for (l, cell) in half.iter_mut().enumerate() {
+                let c = &cells.cells[HALF * h + l];
+                for (k, v) in cell.iter_mut().enumerate() {
+                    *v = Vec4::from_slice(&c[4 * k..4 * k + 4]);
+                }
+            }
+        }
+        let halves = [
+            CellLanes::from_packed(&packed[0]),
+            CellLanes::from_packed(&packed[1]),
+        ];
         let f = CellLanes::join(&halves[0], &halves[1]);
         let c = cells.cos_v.clamp(0.0f32, 1.0f32);
         let view = [
