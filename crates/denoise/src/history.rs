@@ -72,6 +72,13 @@ impl History {
         field::COUNT * self.width
     }
 
+    /// Field `k` of image row `y`.
+    #[inline(always)]
+    pub fn field_row(&self, k: usize, y: usize) -> &[f32] {
+        let at = y * self.row_len() + k * self.width;
+        &self.data[at..at + self.width]
+    }
+
     /// Field `k` of pixel `i` (row-major).
     #[inline(always)]
     pub fn get(&self, k: usize, i: usize) -> f32 {

@@ -331,12 +331,14 @@ impl Denoiser {
                 if !self.tiles.skipped(tx, ty) {
                     return 0;
                 }
+                let columns = tx * TILE..((tx + 1) * TILE).min(w);
                 let long = (ty * TILE..((ty + 1) * TILE).min(h)).all(|y| {
-                    (tx * TILE..((tx + 1) * TILE).min(w)).all(|x| {
-                        let i = y * w + x;
-                        prev.get(history::field::DEPTH, i) <= 0.0
-                            || prev.get(history::field::LEN, i) >= min_history
-                    })
+                    let depth = &prev.field_row(history::field::DEPTH, y)[columns.clone()];
+                    let len = &prev.field_row(history::field::LEN, y)[columns.clone()];
+                    depth
+                        .iter()
+                        .zip(len)
+                        .all(|(&d, &n)| d <= 0.0 || n >= min_history)
                 });
                 if long { self.tiles.class(t) } else { 0 }
             })
