@@ -466,8 +466,8 @@ fn put(dst: &mut [f32], at: usize, v: &[f32; LANES], n: usize) {
 /// vector end, each of the 2x2 taps validated on its own (a tap across a
 /// silhouette is dropped and the rest renormalised); no history where
 /// disoccluded or where the light changed. Lane for lane the arithmetic of
-/// [`bilinear_taps`], [`same_surface`] and [`light_changed`]; only the
-/// fetches of the history records are per lane.
+/// [`bilinear_taps`], [`same_surface`] and [`light_changed`]. `(gx, gy)`:
+/// the group's first pixel.
 #[inline(always)]
 fn reproject_lanes(
     prev: &History,
