@@ -609,9 +609,9 @@ impl Kernel for LevelRow<'_, '_> {
     }
 }
 
-/// Luminance per lane.
+/// Luminance per lane, in `luminance`'s order of operations.
 #[inline(always)]
-fn luma(c: &[V; 3]) -> V {
+pub(crate) fn luma(c: &[V; 3]) -> V {
     c[0] * LUMA.x + c[1] * LUMA.y + c[2] * LUMA.z
 }
 

@@ -13,7 +13,6 @@ use super::tiles::{self, TILE};
 use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::{Vec2, Vec3};
 use penumbra_isa::{self as isa, Kernel};
-use penumbra_scene::color::LUMA;
 use rayon::prelude::*;
 
 /// A lane group's inputs to the reprojection and the blend, a lane per
@@ -288,16 +287,20 @@ impl Kernel for Row<'_, '_> {
                     sn[x0 + l] = Vec3::new(acc_s[0].0[l], acc_s[1].0[l], acc_s[2].0[l]);
                 }
             }
-            // The history, zeros where there is no surface. Written out
-            // field by field: an array of lanes to loop over is copied
+            // Every plane the pass writes, one store per group and plane; a
+            // lane without a surface takes the plane's empty value. Written
+            // out plane by plane: an array of lanes to loop over is copied
             // through memory first.
-            let (e0, e1) = encode_normal_lanes(&px.normal);
-            macro_rules! history {
-                ($($k:expr => $v:expr),* $(,)?) => {
-                    $(put(h, $k * w + x0, &surface.select($v, zero).0, n);)*
+            macro_rules! store {
+                ($dst:expr, ($stride:expr, $pad:expr), $empty:expr; $($k:expr => $v:expr),* $(,)?) => {
+                    $({
+                        let v = surface.select($v, V::splat($empty[$k]));
+                        put($dst, $k * $stride + $pad + x0, &v.0, n);
+                    })*
                 };
             }
-            history!(
+            let (e0, e1) = encode_normal_lanes(&px.normal);
+            store!(h, (w, 0), [0.0; field::COUNT];
                 field::DEPTH => px.depth,
                 field::PX => px.pos[0],
                 field::PY => px.pos[1],
@@ -316,25 +319,17 @@ impl Kernel for Row<'_, '_> {
                 field::SR + 1 => acc_s[1],
                 field::SR + 2 => acc_s[2],
             );
-            // The spatial filter's guides and accumulated signals; a pixel
-            // without a surface keeps the border values (every tap gives
-            // it weight 0, the filter never writes it).
+            // The spatial filter's guides and accumulated signals (every
+            // tap gives an empty pixel weight 0, the filter never writes
+            // it).
             let lobe_k = spatial::lobe_weight(
                 px.sharpness,
                 settings.lobe_scale,
-                spatial::confidence(luma(&acc_u), px.lu),
+                spatial::confidence(spatial::luma(&acc_u), px.lu),
             );
-            macro_rules! guides {
-                ($($k:expr => $v:expr),* $(,)?) => {
-                    $({
-                        let v = surface.select($v, V::splat(spatial::GUIDE_BORDER[$k]));
-                        put(gd, $k * gs + gp + x0, &v.0, n);
-                    })*
-                };
-            }
             {
                 use spatial::guide::*;
-                guides!(
+                store!(gd, (gs, gp), spatial::GUIDE_BORDER;
                     PX => px.pos[0],
                     PY => px.pos[1],
                     PZ => px.pos[2],
@@ -349,17 +344,9 @@ impl Kernel for Row<'_, '_> {
                 );
             }
             let r_acc = ratio_lanes(&acc_s, &acc_u);
-            macro_rules! signals {
-                ($($k:expr => $v:expr),* $(,)?) => {
-                    $({
-                        let v = surface.select($v, V::splat(spatial::SIGNAL_BORDER[$k]));
-                        put(ar, $k * ss + sp + x0, &v.0, n);
-                    })*
-                };
-            }
             {
                 use spatial::signal::*;
-                signals!(
+                store!(ar, (ss, sp), spatial::SIGNAL_BORDER;
                     UR => acc_u[0],
                     UR + 1 => acc_u[1],
                     UR + 2 => acc_u[2],
@@ -371,12 +358,7 @@ impl Kernel for Row<'_, '_> {
             }
             // Per `noise`'s planes; `len` is positive on a surface (1 or
             // more up to rounding), which marks the pixel as one there.
-            macro_rules! moments {
-                ($($k:expr => $v:expr),* $(,)?) => {
-                    $(put(raw, $k * ms + mp + x0, &surface.select($v, zero).0, n);)*
-                };
-            }
-            moments!(
+            store!(raw, (ms, mp), [0.0; noise::COUNT];
                 noise::RAW => r,
                 noise::VAR_T => (m2 - m1 * m1).max(zero),
                 noise::LEN => len,
@@ -404,20 +386,14 @@ impl Mix {
     }
 }
 
-/// Luminance per lane, in `luminance`'s order of operations.
-#[inline(always)]
-fn luma(c: &[V; 3]) -> V {
-    c[0] * LUMA.x + c[1] * LUMA.y + c[2] * LUMA.z
-}
-
 /// `luminance_ratio` per lane.
 #[inline(always)]
 fn ratio_lanes(s: &[V; 3], u: &[V; 3]) -> V {
-    let lu = luma(u);
+    let lu = spatial::luma(u);
     let ok = lu
         .gt(V::splat(1e-30))
         .and(lu.abs().lt(V::splat(f32::INFINITY)));
-    let q = luma(s) / ok.select(lu, V::splat(1.0));
+    let q = spatial::luma(s) / ok.select(lu, V::splat(1.0));
     ok.select(lanes::clamp01(q), V::splat(1.0))
 }
 
