@@ -69,8 +69,13 @@ fn quick_bench_writes_json_whose_figures_are_complete_and_sane() {
         assert_eq!(num(c, "camera_rays"), w * h);
         assert!(num(c, "rel_mse") > 0.0 && num(c, "rel_mse_interior") > 0.0);
         assert!(num(c, "mrays_per_s") > 0.0);
-        // The frame traces the ceiling's rays and shades too: it cannot be faster.
-        assert!(num(c, "over_ceiling") > 1.0, "{c}");
+        // At the full render scale the frame traces the ceiling's rays and
+        // shades too: it cannot be faster. Below it (`50% res`) the frame
+        // traces a fraction of the camera rays the ceiling counts, so the
+        // ceiling bounds nothing there.
+        if num(c, "render_scale") >= 1.0 {
+            assert!(num(c, "over_ceiling") > 1.0, "{c}");
+        }
         for stage in ["primary", "u", "shadow", "denoise", "composite"] {
             assert!(num(&c["stages_ms"], stage) >= 0.0);
         }
