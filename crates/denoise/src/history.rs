@@ -2,27 +2,11 @@
 //! next frame needs to validate a reprojection tap.
 //!
 //! The record is kept small (17 values with both signals): the normal is
-//! octahedron-encoded. The colour resolve keeps the same metadata per pixel
-//! as one record (`Meta`).
+//! octahedron-encoded. The colour resolve keeps the same metadata in planes
+//! of its own layout (`History::with_fields`).
 
+#[cfg(test)]
 use glam::{Vec2, Vec3};
-
-/// Per-pixel history metadata of the colour resolve, packed so one
-/// reprojection tap touches one small record.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Meta {
-    pub pos: Vec3,
-    /// Octahedral encoding of the unit normal (see [`encode_normal`]).
-    pub normal: [i16; 2],
-    /// 0: no surface, the pixel has no history to give.
-    pub depth: f32,
-    /// Luminance of the analytic `U` this frame, and of its diffuse part
-    /// (which a camera move cannot change), to detect light changes.
-    pub lu: f32,
-    pub lu_diffuse: f32,
-    /// Frames accumulated (capped); fractional after bilinear reprojection.
-    pub len: f32,
-}
 
 /// The fields of one pixel's history, one `f32` plane each (`History`).
 /// The encoded normal's two components are stored as the integers they
@@ -46,30 +30,38 @@ pub(crate) mod field {
     pub const COUNT: usize = 17;
 }
 
-/// One frame of history, a plane per `field`, stored row by row: image
-/// row `y` of every field is one block of `COUNT * width` values (field
-/// `k` at `k * width`), so the temporal pass writes a row of every field
-/// on its own, and a lane group whose taps are consecutive pixels of one
-/// row (a still camera: every tap; a smooth camera move: most) reads each
-/// field with one load. A pixel without a surface holds zeros: depth 0,
-/// no history to give.
+/// One frame of history, a plane per field (`field` for the denoiser's),
+/// stored row by row: image row `y` of every field is one block of
+/// `fields * width` values (field `k` at `k * width`), so a pass writes a
+/// row of every field on its own, and a lane group whose taps are
+/// consecutive pixels of one row (a still camera: every tap; a smooth
+/// camera move: most) reads each field with one load. A pixel without a
+/// surface holds zeros: depth 0, no history to give.
 pub(crate) struct History {
     pub data: Vec<f32>,
     pub width: usize,
+    fields: usize,
 }
 
 impl History {
+    /// The denoiser's history (`field`).
     pub fn new(width: usize, height: usize) -> History {
+        History::with_fields(width, height, field::COUNT)
+    }
+
+    /// A history of `fields` planes.
+    pub fn with_fields(width: usize, height: usize, fields: usize) -> History {
         History {
-            data: vec![0.0; field::COUNT * width * height],
+            data: vec![0.0; fields * width * height],
             width,
+            fields,
         }
     }
 
     /// Values of one image row of every field.
     #[inline(always)]
     pub fn row_len(&self) -> usize {
-        field::COUNT * self.width
+        self.fields * self.width
     }
 
     /// Field `k` of image row `y`.
@@ -88,7 +80,7 @@ impl History {
 
     /// Pixels held.
     pub fn len(&self) -> usize {
-        self.data.len() / field::COUNT
+        self.data.len() / self.fields
     }
 
     /// Forget everything: every tap of the next reprojection fails its depth test.
@@ -98,8 +90,10 @@ impl History {
 }
 
 /// Octahedral normal encoding (Cigolle et al. 2014): about 1e-4 rad error,
-/// far below the reprojection's normal tolerance.
-#[inline]
+/// far below the reprojection's normal tolerance. The passes encode in
+/// lanes (`temporal::encode_normal_lanes`); this is the scalar reference
+/// the tests hold them to.
+#[cfg(test)]
 pub(crate) fn encode_normal(n: Vec3) -> [i16; 2] {
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
     if !(l1 > 0.0 && l1.is_finite()) {
@@ -116,8 +110,9 @@ pub(crate) fn encode_normal(n: Vec3) -> [i16; 2] {
 }
 
 /// Decoded normal, not normalised (length within [1/sqrt(3), 1]): callers
-/// compare angles with squared dots and avoid the square root.
-#[inline(always)]
+/// compare angles with squared dots and avoid the square root. The scalar
+/// reference of `temporal::decode_normal_lanes`.
+#[cfg(test)]
 pub(crate) fn decode_normal(e: [i16; 2]) -> Vec3 {
     // A multiply, not a divide: this runs on every reprojection tap and the
     // last-bit difference is far below the normal tolerance.
@@ -130,7 +125,7 @@ pub(crate) fn decode_normal(e: [i16; 2]) -> Vec3 {
 }
 
 /// Sign with +1 at zero (octahedral wrap needs a definite side).
-#[inline]
+#[cfg(test)]
 fn sign(p: Vec2) -> Vec2 {
     Vec2::new(
         if p.x >= 0.0 { 1.0 } else { -1.0 },

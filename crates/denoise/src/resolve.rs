@@ -18,10 +18,15 @@
 //! `U · dn(S_N) / dn(U_N)` with one set of weights; this stage only averages
 //! finished frames.
 
-use super::history::{Meta, encode_normal};
-use super::temporal::{Taps, bilinear_footprint, light_changed, same_surface, sanitize};
+use super::history::History;
+use super::spatial::LANES;
+use super::spatial::lanes::{M, V, each};
+use super::temporal::{
+    Taps, encode_normal_lanes, floor_lanes, light_changed_lanes, put, same_surface_lanes, sanitize,
+};
 use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::Vec3;
+use penumbra_isa::{self as isa, Kernel};
 use rayon::prelude::*;
 
 /// Knobs of the resolve. `Default` gives the tuned values.
@@ -48,44 +53,44 @@ impl Default for ResolveSettings {
     }
 }
 
-/// One frame of the resolved signals and what the next frame needs to
-/// validate them.
-struct ColorHistory {
-    /// The noise-free factor of the colour (see `resolve`).
-    factor: Vec<Vec3>,
-    color: Vec<Vec3>,
-    meta: Vec<Meta>,
-    /// The history holds more than one surface (the jitter crossed an edge).
-    mixed: Vec<bool>,
-}
-
-impl ColorHistory {
-    fn new(n: usize) -> ColorHistory {
-        ColorHistory {
-            factor: vec![Vec3::ZERO; n],
-            color: vec![Vec3::ZERO; n],
-            meta: vec![Meta::default(); n],
-            mixed: vec![false; n],
-        }
-    }
-}
-
-/// One resolved pixel: both signals, how many frames, and whether they
-/// came from more than one surface.
-#[derive(Clone, Copy)]
-struct Resolved {
-    factor: Vec3,
-    color: Vec3,
-    len: f32,
-    mixed: bool,
+/// The fields of a pixel's resolve record, one `f32` plane each
+/// (`History`'s layout): what the next frame validates the history with,
+/// and the resolved signals.
+mod record {
+    /// Frames averaged (capped); fractional after bilinear reprojection.
+    pub const LEN: usize = 0;
+    /// 1 where the history holds more than one surface, else 0.
+    pub const MIXED: usize = 1;
+    /// The noise-free factor of the colour (see `resolve`), then the colour.
+    pub const FACTOR: usize = 2;
+    pub const COLOR: usize = 5;
+    /// The fields above are what a tap gives; those below, what testing
+    /// it takes.
+    pub const SIGNALS: usize = 8;
+    pub const DEPTH: usize = 8;
+    pub const PX: usize = 9;
+    pub const PY: usize = 10;
+    pub const PZ: usize = 11;
+    /// The octahedral normal's two components, as the integers they are.
+    pub const E0: usize = 12;
+    pub const E1: usize = 13;
+    /// Luminance of the analytic `U` this frame, and of its diffuse part.
+    pub const LU: usize = 14;
+    pub const LU_DIFFUSE: usize = 15;
+    pub const COUNT: usize = 16;
 }
 
 /// Resolve state: the previous resolved frame and the one being written.
 pub struct Resolve {
     width: u32,
     height: u32,
-    prev: ColorHistory,
-    cur: ColorHistory,
+    prev: History,
+    cur: History,
+    /// Per pixel of the last frame resolved: `mixed`.
+    mixed: Vec<bool>,
+    /// A moving camera's inputs, sanitized, as planes (`Inputs`): the
+    /// clamp reads the rows around a row that is resolved in place.
+    inputs: Inputs,
     /// `prev` holds a resolved frame (not only empty records).
     has_history: bool,
 }
@@ -101,35 +106,38 @@ pub enum CameraMotion {
 
 impl Resolve {
     pub fn new(width: u32, height: u32) -> Resolve {
-        let n = width as usize * height as usize;
+        let (w, h) = (width as usize, height as usize);
         Resolve {
             width,
             height,
-            prev: ColorHistory::new(n),
-            cur: ColorHistory::new(n),
+            prev: History::with_fields(w, h, record::COUNT),
+            cur: History::with_fields(w, h, record::COUNT),
+            mixed: vec![false; w * h],
+            inputs: Inputs::new(w, h),
             has_history: false,
         }
     }
 
     /// Forgets the history: the next frame stands alone.
     pub fn reset(&mut self) {
-        for h in [&mut self.prev, &mut self.cur] {
-            h.meta.fill(Meta::default());
-            h.mixed.fill(false);
-        }
+        self.prev.clear();
+        self.cur.clear();
+        self.mixed.fill(false);
         self.has_history = false;
     }
 
     /// Frames averaged per pixel after the last call (0 before any).
     pub fn history_len(&self) -> Vec<f32> {
-        self.prev.meta.iter().map(|m| m.len).collect()
+        (0..self.height as usize)
+            .flat_map(|y| self.prev.field_row(record::LEN, y).iter().copied())
+            .collect()
     }
 
     /// Per pixel after the last call: whether its history holds more than
     /// one surface (the jitter or the motion crossed a geometric edge), so
     /// the resolved factor does not belong to this frame's surface alone.
     pub fn mixed(&self) -> &[bool] {
-        &self.prev.mixed
+        &self.mixed
     }
 
     /// Replaces `factor` and `color` by their temporal resolves, with the
@@ -172,88 +180,67 @@ impl Resolve {
         if n == 0 {
             return;
         }
-        let prev = &self.prev;
         let cap = match motion {
             CameraMotion::Still => settings.max_history_still,
             CameraMotion::Moved => settings.max_history_moving,
         }
         .max(1) as f32;
-        let cur = &mut self.cur;
+        let row_len = self.cur.row_len();
+        let prev = &self.prev;
         // Without a resolved frame every tap would fail its test.
         let motion = if self.has_history { Some(motion) } else { None };
         let rows = (
-            cur.factor.par_chunks_mut(w),
-            cur.color.par_chunks_mut(w),
-            cur.meta.par_chunks_mut(w),
-            cur.mixed.par_chunks_mut(w),
-        )
-            .into_par_iter()
-            .map(|(factor, color, meta, mixed)| RowOut {
-                factor,
-                color,
-                meta,
-                mixed,
-                cap,
-            });
+            self.cur.data.par_chunks_mut(row_len),
+            self.mixed.par_chunks_mut(w),
+        );
         match motion {
-            // A pixel that reads only its own input writes its result over
-            // it, while the row is in cache: copying the resolved frame out
-            // afterwards would move both signals through memory once more.
+            // Every row is resolved in place, while it is in cache: copying
+            // the resolved frame out afterwards would move both signals
+            // through memory once more. A pixel that reads only its own
+            // input reads it there; a moving camera reads its inputs from a
+            // copy (`Inputs`), since the clamp reads the rows around.
             None | Some(CameraMotion::Still) => {
-                rows.zip(factor.par_chunks_mut(w))
-                    .zip(color.par_chunks_mut(w))
+                (rows, factor.par_chunks_mut(w), color.par_chunks_mut(w))
+                    .into_par_iter()
                     .enumerate()
-                    .for_each(|(y, ((mut out, now_f), now_c))| {
-                        let row = y * w;
-                        for x in 0..w {
-                            let here = Pixel::of(guide, row + x);
-                            let hist =
-                                motion.and_then(|_| still_history(prev, row + x, &here, surface));
-                            let now = (sanitize(now_f[x]), sanitize(now_c[x]));
-                            out.put(x, &here, now, hist);
-                            (now_f[x], now_c[x]) = (out.factor[x], out.color[x]);
-                        }
+                    .for_each(|(y, ((record, mixed), factor, color))| {
+                        isa::run(StillRow {
+                            guide,
+                            prev: motion.map(|_| prev),
+                            surface,
+                            out: RowOut {
+                                y,
+                                cap,
+                                record,
+                                mixed,
+                            },
+                            signals: (factor, color),
+                        })
                     });
             }
             Some(CameraMotion::Moved) => {
-                let (now_f, now_c): (&[Vec3], &[Vec3]) = (factor, color);
-                rows.enumerate().for_each(|(y, mut out)| {
-                    let row = y * w;
-                    // The clamp's 3x3 ranges, slid along the row: each
-                    // column's range over three rows is taken once and
-                    // serves three pixels.
-                    let mut ranges = settings.clamp.then(|| {
-                        (
-                            RowRanges::new(now_f, w, h, y),
-                            RowRanges::new(now_c, w, h, y),
-                        )
+                self.inputs.fill((factor, color));
+                let inputs = &self.inputs;
+                (rows, factor.par_chunks_mut(w), color.par_chunks_mut(w))
+                    .into_par_iter()
+                    .enumerate()
+                    .for_each(|(y, ((record, mixed), out_f, out_c))| {
+                        isa::run(MovedRow {
+                            guide,
+                            prev,
+                            surface,
+                            taps,
+                            clamp: settings.clamp,
+                            inputs,
+                            out: RowOut {
+                                y,
+                                cap,
+                                record,
+                                mixed,
+                            },
+                            signals: (out_f, out_c),
+                        })
                     });
-                    for x in 0..w {
-                        let i = row + x;
-                        let here = Pixel::of(guide, i);
-                        let hist = (here.meta.depth > 0.0 && guide.prev_valid[i])
-                            .then(|| match taps {
-                                Some(taps) => retraced(guide, prev, x, y, taps[i]),
-                                None => reprojected(guide, prev, x, y, &here, surface),
-                            })
-                            .flatten()
-                            .map(|mut r| {
-                                if let Some((rf, rc)) = &ranges {
-                                    r.factor = rf.clamp(r.factor);
-                                    r.color = rc.clamp(r.color);
-                                }
-                                r
-                            });
-                        if let Some((rf, rc)) = &mut ranges {
-                            rf.advance();
-                            rc.advance();
-                        }
-                        let now = (sanitize(now_f[i]), sanitize(now_c[i]));
-                        out.put(x, &here, now, hist);
-                    }
-                });
-                factor.copy_from_slice(&self.cur.factor);
-                color.copy_from_slice(&self.cur.color);
             }
         }
         std::mem::swap(&mut self.prev, &mut self.cur);
@@ -261,75 +248,186 @@ impl Resolve {
     }
 }
 
-/// One row of the resolve's output: the resolved signals and the record
-/// the next frame validates them with.
-struct RowOut<'a> {
-    factor: &'a mut [Vec3],
-    color: &'a mut [Vec3],
-    meta: &'a mut [Meta],
-    mixed: &'a mut [bool],
-    /// History length cap.
-    cap: f32,
+/// A lane group of one row as the resolve reads it, a lane per pixel: the
+/// surface (depth 0 where there is none), the light at it, and this
+/// frame's sanitized signals.
+#[derive(Default)]
+struct Here {
+    depth: V,
+    pos: [V; 3],
+    normal: [V; 3],
+    lu: V,
+    lu_diffuse: V,
+    factor: [V; 3],
+    color: [V; 3],
 }
 
-impl RowOut<'_> {
-    /// Blends this frame's `(factor, color)` of pixel `x` into its history
-    /// (if any) and writes the result.
+impl Here {
+    /// The surface and light of the `n` pixels of row `y` from column
+    /// `x0`; the signals are left at zero.
     #[inline(always)]
-    fn put(&mut self, x: usize, here: &Pixel, (f, c): (Vec3, Vec3), hist: Option<Resolved>) {
-        let r = match hist {
-            Some(r) => {
-                let len = (r.len + 1.0).min(self.cap);
-                let a = 1.0 / len;
-                Resolved {
-                    factor: r.factor + (f - r.factor) * a,
-                    color: r.color + (c - r.color) * a,
-                    len,
-                    mixed: r.mixed,
-                }
+    fn surface(guide: &GuideBuffers, (x0, y, n): (usize, usize, usize)) -> Here {
+        let mut h = Here::default();
+        let row = y * guide.width as usize;
+        for l in 0..n {
+            let i = row + x0 + l;
+            let d = guide.depth[i];
+            let surface = d > 0.0 && d.is_finite();
+            let lu = luminance(guide.u[i]);
+            let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
+            let share = match guide.lobe.get(i) {
+                Some(lobe) => lobe.share,
+                None => 0.0,
+            };
+            let (pos, normal) = (guide.position[i], guide.normal[i]);
+            h.depth.0[l] = if surface { d } else { 0.0 };
+            h.lu.0[l] = lu;
+            h.lu_diffuse.0[l] = lu * (1.0 - share);
+            for k in 0..3 {
+                h.pos[k].0[l] = pos[k];
+                h.normal[k].0[l] = normal[k];
             }
-            None => Resolved {
-                factor: f,
-                color: c,
-                len: 1.0,
-                mixed: false,
-            },
-        };
-        self.factor[x] = r.factor;
-        self.color[x] = r.color;
-        self.mixed[x] = r.mixed;
-        self.meta[x] = Meta {
-            len: r.len,
-            ..here.meta
-        };
+        }
+        h
+    }
+
+    /// `surface`, with the signals sanitized from the row's `factor` and
+    /// `color`.
+    #[inline(always)]
+    fn load(
+        guide: &GuideBuffers,
+        (x0, y, n): (usize, usize, usize),
+        (factor, color): (&[Vec3], &[Vec3]),
+    ) -> Here {
+        let mut h = Here::surface(guide, (x0, y, n));
+        for l in 0..n {
+            let (f, c) = (sanitize(factor[x0 + l]), sanitize(color[x0 + l]));
+            for k in 0..3 {
+                h.factor[k].0[l] = f[k];
+                h.color[k].0[l] = c[k];
+            }
+        }
+        h
     }
 }
 
-/// What the resolve knows of the current pixel, in the history's record.
-pub(super) struct Pixel {
-    pub meta: Meta,
-    pub normal: Vec3,
+/// The history of a lane group's pixels: per lane whether there is one,
+/// and its signals, length and whether it is mixed.
+#[derive(Default)]
+struct Held {
+    has: [bool; LANES],
+    mixed: [bool; LANES],
+    factor: [V; 3],
+    color: [V; 3],
+    len: V,
 }
 
-impl Pixel {
+/// One row of the resolve's output: the records the next frame validates
+/// its history with, and the mixed flags.
+struct RowOut<'a> {
+    y: usize,
+    /// History length cap.
+    cap: f32,
+    /// The row's block of the record's planes (`History`).
+    record: &'a mut [f32],
+    mixed: &'a mut [bool],
+}
+
+impl RowOut<'_> {
+    /// Blends a lane group's signals into its history (where it holds one)
+    /// and writes the result: the records, the mixed flags and the
+    /// resolved signals into `factor` and `color` (the row's).
     #[inline(always)]
-    pub(super) fn of(guide: &GuideBuffers, i: usize) -> Pixel {
-        let d = guide.depth[i];
-        let surface = d > 0.0 && d.is_finite();
-        let lu = luminance(guide.u[i]);
-        let lu = if lu.is_finite() { lu.max(0.0) } else { 0.0 };
-        let share = guide.lobe.get(i).map_or(0.0, |l| l.share);
-        let normal = guide.normal[i];
-        Pixel {
-            meta: Meta {
-                pos: guide.position[i],
-                normal: encode_normal(normal),
-                depth: if surface { d } else { 0.0 },
-                lu,
-                lu_diffuse: lu * (1.0 - share),
-                ..Meta::default()
-            },
-            normal,
+    fn put(
+        &mut self,
+        (x0, n): (usize, usize),
+        here: &Here,
+        held: &Held,
+        (factor, color): (&mut [Vec3], &mut [Vec3]),
+    ) {
+        let w = self.mixed.len();
+        let one = V::splat(1.0);
+        let has = M::from_fn(|l| held.has[l]);
+        let len_b = (held.len + 1.0).min(V::splat(self.cap));
+        let a = one / has.select(len_b, one);
+        let blend = |h: V, v: V| has.select(h + (v - h) * a, v);
+        let f = [
+            blend(held.factor[0], here.factor[0]),
+            blend(held.factor[1], here.factor[1]),
+            blend(held.factor[2], here.factor[2]),
+        ];
+        let c = [
+            blend(held.color[0], here.color[0]),
+            blend(held.color[1], here.color[1]),
+            blend(held.color[2], here.color[2]),
+        ];
+        let len = has.select(len_b, one);
+        let mixed: [bool; LANES] = each(|l| held.has[l] && held.mixed[l]);
+        let (e0, e1) = encode_normal_lanes(&here.normal);
+        let mixed_v = V(each(|l| f32::from(u8::from(mixed[l]))));
+        // One store per plane, written out plane by plane: an array of
+        // lanes to loop over is copied through memory first.
+        macro_rules! store {
+            ($($k:expr => $v:expr),* $(,)?) => {
+                $(put(self.record, $k * w + x0, &$v.0, n);)*
+            };
+        }
+        store!(
+            record::DEPTH => here.depth,
+            record::PX => here.pos[0],
+            record::PY => here.pos[1],
+            record::PZ => here.pos[2],
+            record::E0 => e0,
+            record::E1 => e1,
+            record::LU => here.lu,
+            record::LU_DIFFUSE => here.lu_diffuse,
+            record::LEN => len,
+            record::MIXED => mixed_v,
+            record::FACTOR => f[0],
+            record::FACTOR + 1 => f[1],
+            record::FACTOR + 2 => f[2],
+            record::COLOR => c[0],
+            record::COLOR + 1 => c[1],
+            record::COLOR + 2 => c[2],
+        );
+        for l in 0..n {
+            self.mixed[x0 + l] = mixed[l];
+            factor[x0 + l] = Vec3::new(f[0].0[l], f[1].0[l], f[2].0[l]);
+            color[x0 + l] = Vec3::new(c[0].0[l], c[1].0[l], c[2].0[l]);
+        }
+    }
+}
+
+/// A row under a still camera (or without history: `prev` is `None`),
+/// resolved in place.
+struct StillRow<'a, 'g> {
+    guide: &'a GuideBuffers<'g>,
+    prev: Option<&'a History>,
+    surface: &'a DenoiseSettings,
+    out: RowOut<'a>,
+    signals: (&'a mut [Vec3], &'a mut [Vec3]),
+}
+
+impl Kernel for StillRow<'_, '_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        let StillRow {
+            guide,
+            prev,
+            surface,
+            mut out,
+            signals: (factor, color),
+        } = self;
+        let (w, y) = (guide.width as usize, out.y);
+        for x0 in (0..w).step_by(LANES) {
+            let n = LANES.min(w - x0);
+            let here = Here::load(guide, (x0, y, n), (factor, color));
+            let held = match prev {
+                Some(prev) => still_held(prev, (x0, y, n), &here, surface),
+                None => Held::default(),
+            };
+            out.put((x0, n), &here, &held, (&mut *factor, &mut *color));
         }
     }
 }
@@ -341,209 +439,350 @@ impl Pixel {
 /// between frames for the same reason; the renderer drops the history when
 /// the lights change.
 #[inline(always)]
-fn still_history(
-    prev: &ColorHistory,
-    i: usize,
-    here: &Pixel,
+fn still_held(
+    prev: &History,
+    (x0, y, n): (usize, usize, usize),
+    here: &Here,
     s: &DenoiseSettings,
-) -> Option<Resolved> {
-    let m = &prev.meta[i];
-    if m.len <= 0.0 {
-        return None;
-    }
-    let d = here.meta.depth;
-    let same = if d > 0.0 {
-        same_surface(m, d, here.meta.pos, here.normal, s)
-    } else {
-        m.depth <= 0.0
-    };
-    Some(Resolved {
-        factor: prev.factor[i],
-        color: prev.color[i],
-        len: m.len,
-        mixed: prev.mixed[i] || !same,
-    })
-}
-
-/// Bilinear fetch of the previous resolve at the unjittered motion vector's
-/// end, each tap validated like the denoiser's; `None` where disoccluded or
-/// the light changed.
-#[inline]
-fn reprojected(
-    guide: &GuideBuffers,
-    prev: &ColorHistory,
-    x: usize,
-    y: usize,
-    here: &Pixel,
-    s: &DenoiseSettings,
-) -> Option<Resolved> {
-    let taps = bilinear_footprint(guide, x, y)?;
-    let (d, pos) = (here.meta.depth, here.meta.pos);
-    let mut passed: Taps = 0;
-    for (k, tap) in taps.iter().enumerate() {
-        if let Some((j, _)) = *tap
-            && same_surface(&prev.meta[j], d, pos, here.normal, s)
-        {
-            passed |= 1 << k;
+) -> Held {
+    let w = prev.width;
+    let base = y * prev.row_len() + x0;
+    // Every field but the light's, which only a moving camera tests.
+    let mut f = [V::default(); record::COUNT];
+    for (k, f) in f[..record::LU].iter_mut().enumerate() {
+        if n == LANES {
+            *f = V::load(&prev.data, base + k * w);
+        } else {
+            f.0[..n].copy_from_slice(&prev.data[base + k * w..base + k * w + n]);
         }
     }
-    let (resolved, inv) = summed(prev, &taps, passed)?;
-    if s.light_test {
-        let (mut lu, mut lu_diffuse) = (0.0f32, 0.0f32);
-        for (j, wt) in passed_taps(&taps, passed) {
-            lu += prev.meta[j].lu * wt;
-            lu_diffuse += prev.meta[j].lu_diffuse * wt;
-        }
-        if light_changed(
-            (here.meta.lu, here.meta.lu_diffuse),
-            (lu * inv, lu_diffuse * inv),
-            s.u_change,
-        ) {
-            return None;
-        }
-    }
-    Some(resolved)
-}
-
-/// `reprojected` with the taps the denoiser's reprojection passed
-/// (`Taps`): the same taps, sums and order, without the tests.
-#[inline(always)]
-fn retraced(
-    guide: &GuideBuffers,
-    prev: &ColorHistory,
-    x: usize,
-    y: usize,
-    passed: Taps,
-) -> Option<Resolved> {
-    if passed == 0 {
-        return None;
-    }
-    let taps = bilinear_footprint(guide, x, y)?;
-    summed(prev, &taps, passed).map(|(r, _)| r)
-}
-
-/// The bilinear `taps` whose bit is set in `passed`, in their order.
-#[inline(always)]
-fn passed_taps(
-    taps: &[Option<(usize, f32)>; 4],
-    passed: Taps,
-) -> impl Iterator<Item = (usize, f32)> + '_ {
-    (0..4).filter_map(move |k| taps[k].filter(|_| passed & (1 << k) != 0))
-}
-
-/// The history's weighted mean over the taps that `passed`, and the
-/// reciprocal of their weight; `None` below a sliver of valid footprint.
-#[inline(always)]
-fn summed(
-    prev: &ColorHistory,
-    taps: &[Option<(usize, f32)>; 4],
-    passed: Taps,
-) -> Option<(Resolved, f32)> {
-    let mut acc = Resolved {
-        factor: Vec3::ZERO,
-        color: Vec3::ZERO,
-        len: 0.0,
-        mixed: false,
+    let zero = V::splat(0.0);
+    let (md, mlen) = (f[record::DEPTH], f[record::LEN]);
+    let mpos = [f[record::PX], f[record::PY], f[record::PZ]];
+    let same = same_surface_lanes(
+        (here.depth, &here.pos, &here.normal),
+        (md, mpos, (f[record::E0], f[record::E1]), mlen),
+        s,
+    );
+    let mut held = Held {
+        factor: [
+            f[record::FACTOR],
+            f[record::FACTOR + 1],
+            f[record::FACTOR + 2],
+        ],
+        color: [f[record::COLOR], f[record::COLOR + 1], f[record::COLOR + 2]],
+        len: mlen,
+        ..Held::default()
     };
-    let mut wsum = 0.0f32;
-    for (j, wt) in passed_taps(taps, passed) {
-        wsum += wt;
-        acc.factor += prev.factor[j] * wt;
-        acc.color += prev.color[j] * wt;
-        acc.len += prev.meta[j].len * wt;
-        acc.mixed |= prev.mixed[j];
-    }
-    if wsum < 1e-3 {
-        return None;
-    }
-    let inv = 1.0 / wsum;
-    let resolved = Resolved {
-        factor: acc.factor * inv,
-        color: acc.color * inv,
-        len: acc.len * inv,
-        mixed: acc.mixed,
-    };
-    Some((resolved, inv))
-}
-
-/// The range, per channel, of the current frame's sanitized values in the
-/// 3x3 neighbourhood of each pixel of one row, for clamping its history:
-/// history the current frame cannot explain (a surface that was not there,
-/// light that left) is cut back. The row is walked left to right; each
-/// column's range over its three rows is computed once and kept for the
-/// two pixels after it.
-struct RowRanges<'a> {
-    now: &'a [Vec3],
-    w: usize,
-    /// The rows above and below within the frame, as offsets of the row.
-    rows: [Option<usize>; 2],
-    row: usize,
-    /// The pixel the walk is at.
-    x: usize,
-    /// The ranges of the columns left of, at and right of the pixel.
-    left: Option<Range>,
-    here: Range,
-    right: Option<Range>,
-}
-
-#[derive(Clone, Copy, Default)]
-struct Range {
-    lo: Vec3,
-    hi: Vec3,
-}
-
-impl<'a> RowRanges<'a> {
-    fn new(now: &'a [Vec3], w: usize, h: usize, y: usize) -> RowRanges<'a> {
-        let row = y * w;
-        let mut r = RowRanges {
-            now,
-            w,
-            rows: [(y > 0).then(|| row - w), (y + 1 < h).then_some(row + w)],
-            row,
-            x: 0,
-            left: None,
-            here: Range::default(),
-            right: None,
+    for l in 0..n {
+        // A pixel with no surface keeps its history while the record had
+        // none either.
+        let same = if here.depth.0[l] > zero.0[l] {
+            same.lane(l)
+        } else {
+            md.0[l] <= 0.0
         };
-        if w > 0 {
-            r.here = r.column(0);
-            r.right = (w > 1).then(|| r.column(1));
+        held.has[l] = mlen.0[l] > 0.0 || mlen.0[l].is_nan();
+        held.mixed[l] = f[record::MIXED].0[l] != 0.0 || !same;
+    }
+    held
+}
+
+/// A row under a moving camera: each pixel's history reprojected (its taps
+/// tested here, or the denoiser's `taps`), clamped to the range of this
+/// frame's 3x3 neighbourhood (no ghost trails), then blended.
+struct MovedRow<'a, 'g> {
+    guide: &'a GuideBuffers<'g>,
+    prev: &'a History,
+    surface: &'a DenoiseSettings,
+    taps: Option<&'a [Taps]>,
+    clamp: bool,
+    inputs: &'a Inputs,
+    out: RowOut<'a>,
+    signals: (&'a mut [Vec3], &'a mut [Vec3]),
+}
+
+impl Kernel for MovedRow<'_, '_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        let MovedRow {
+            guide,
+            prev,
+            surface,
+            taps,
+            clamp,
+            inputs,
+            mut out,
+            signals: (out_f, out_c),
+        } = self;
+        let (w, y) = (guide.width as usize, out.y);
+        for x0 in (0..w).step_by(LANES) {
+            let n = LANES.min(w - x0);
+            let mut here = Here::surface(guide, (x0, y, n));
+            for k in 0..3 {
+                here.factor[k] = inputs.at(Inputs::FACTOR + k, (x0, y), 0);
+                here.color[k] = inputs.at(Inputs::COLOR + k, (x0, y), 0);
+            }
+            let mut held = moved_held(prev, guide, (x0, y, n), &here, taps, surface);
+            if clamp {
+                for k in 0..3 {
+                    held.factor[k] = inputs.clamp(Inputs::FACTOR + k, (x0, y), held.factor[k]);
+                    held.color[k] = inputs.clamp(Inputs::COLOR + k, (x0, y), held.color[k]);
+                }
+            }
+            out.put((x0, n), &here, &held, (&mut *out_f, &mut *out_c));
         }
-        r
+    }
+}
+
+/// One image row of `Inputs`: its planes' padded rows.
+struct FillRow<'a> {
+    rows: &'a mut [f32],
+    factor: &'a [Vec3],
+    color: &'a [Vec3],
+}
+
+impl Kernel for FillRow<'_> {
+    type Out = ();
+    #[inline(always)]
+    fn run(self) {
+        let w = self.factor.len();
+        let stride = Inputs::stride(w);
+        for (x, (f, c)) in self.factor.iter().zip(self.color).enumerate() {
+            let (f, c) = (sanitize(*f), sanitize(*c));
+            for k in 0..3 {
+                self.rows[(Inputs::FACTOR + k) * stride + 1 + x] = f[k];
+                self.rows[(Inputs::COLOR + k) * stride + 1 + x] = c[k];
+            }
+        }
+        for row in self.rows.chunks_mut(stride) {
+            row[0] = row[1];
+            let last = row[w];
+            row[w + 1..].fill(last);
+        }
+    }
+}
+
+/// A moving camera's inputs, sanitized, a plane per channel of the factor
+/// and of the colour, each image row padded: one column on the left, and
+/// `LANES + 1` on the right, repeating the row's first and last pixels. A
+/// lane group then reads its 3x3 neighbourhoods as loads shifted a column
+/// either way, and a repeated pixel changes no range.
+struct Inputs {
+    data: Vec<f32>,
+    width: usize,
+    height: usize,
+}
+
+impl Inputs {
+    const FACTOR: usize = 0;
+    const COLOR: usize = 3;
+    const PLANES: usize = 6;
+
+    fn new(width: usize, height: usize) -> Inputs {
+        Inputs {
+            data: vec![0.0; Inputs::PLANES * Inputs::stride(width) * height],
+            width,
+            height,
+        }
     }
 
-    #[inline(always)]
-    fn column(&self, x: usize) -> Range {
-        let centre = sanitize(self.now[self.row + x]);
-        let (mut lo, mut hi) = (centre, centre);
-        for r in self.rows.into_iter().flatten() {
-            let v = sanitize(self.now[r + x]);
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-        Range { lo, hi }
+    /// Values of one padded plane row.
+    fn stride(width: usize) -> usize {
+        width + LANES + 2
     }
 
-    /// `c` clamped to the range of the 3x3 neighbourhood of the pixel the
-    /// walk is at.
-    #[inline(always)]
-    fn clamp(&self, c: Vec3) -> Vec3 {
-        let (mut lo, mut hi) = (self.here.lo, self.here.hi);
-        for r in [self.left, self.right].into_iter().flatten() {
-            lo = lo.min(r.lo);
-            hi = hi.max(r.hi);
-        }
-        c.clamp(lo, hi)
+    /// Writes the planes from the frame's signals.
+    fn fill(&mut self, (factor, color): (&[Vec3], &[Vec3])) {
+        let (w, stride) = (self.width, Inputs::stride(self.width));
+        (
+            self.data.par_chunks_mut(Inputs::PLANES * stride),
+            factor.par_chunks(w),
+            color.par_chunks(w),
+        )
+            .into_par_iter()
+            .for_each(|(rows, factor, color)| {
+                isa::run(FillRow {
+                    rows,
+                    factor,
+                    color,
+                })
+            });
     }
 
-    /// Moves the walk one pixel right.
+    /// Plane `p` at the lane group from `(x0, y)`, shifted `dx` columns
+    /// (-1, 0 or 1).
     #[inline(always)]
-    fn advance(&mut self) {
-        self.x += 1;
-        if let Some(r) = self.right {
-            self.left = Some(self.here);
-            self.here = r;
-            self.right = (self.x + 1 < self.w).then(|| self.column(self.x + 1));
+    fn at(&self, p: usize, (x0, y): (usize, usize), dx: isize) -> V {
+        let stride = Inputs::stride(self.width);
+        let at = (y * Inputs::PLANES + p) * stride + 1 + x0;
+        V::load(&self.data, at.wrapping_add_signed(dx))
+    }
+
+    /// `v` clamped, per lane, to the range of plane `p` over the 3x3
+    /// neighbourhood (within the frame) of the lane group's pixel.
+    #[inline(always)]
+    fn clamp(&self, p: usize, (x0, y): (usize, usize), v: V) -> V {
+        let rows = [y.saturating_sub(1), y, (y + 1).min(self.height - 1)];
+        let mut lo = self.at(p, (x0, y), 0);
+        let mut hi = lo;
+        for r in rows {
+            for dx in [-1, 0, 1] {
+                let c = self.at(p, (x0, r), dx);
+                lo = V(each(|l| lo.0[l].min(c.0[l])));
+                hi = V(each(|l| hi.0[l].max(c.0[l])));
+            }
         }
+        V(each(|l| v.0[l].max(lo.0[l]).min(hi.0[l])))
+    }
+}
+
+/// A moving camera's history of a lane group: per lane a bilinear fetch of
+/// the previous resolve at the unjittered motion vector's end, over the
+/// taps the denoiser's reprojection passed (`taps`), or, without them, over
+/// the taps that pass the denoiser's disocclusion test here, and none where
+/// the light changed: the denoiser's own reprojection (`temporal`), the
+/// taps summed in their order.
+#[inline(always)]
+fn moved_held(
+    prev: &History,
+    guide: &GuideBuffers,
+    (x0, y, n): (usize, usize, usize),
+    here: &Here,
+    taps: Option<&[Taps]>,
+    s: &DenoiseSettings,
+) -> Held {
+    let zero = V::splat(0.0);
+    let one = V::splat(1.0);
+    let row = y * guide.width as usize;
+    let (mut ax, mut ay) = (zero, zero);
+    // Per lane the taps it may take (bit `k` for tap `k`).
+    let mut allowed = [0u8; LANES];
+    let mut ok0 = [false; LANES];
+    for l in 0..n {
+        let i = row + x0 + l;
+        let at = guide.prev_pixel[i];
+        ax.0[l] = at.x - 0.5;
+        ay.0[l] = at.y - 0.5;
+        allowed[l] = match taps {
+            Some(taps) => taps[i],
+            None => 0b1111,
+        };
+        // Finite and not far off-screen (no overflow in the casts).
+        ok0[l] = here.depth.0[l] > 0.0
+            && guide.prev_valid[i]
+            && allowed[l] != 0
+            && ax.0[l].abs() <= 1e9
+            && ay.0[l].abs() <= 1e9;
+    }
+    if !ok0.iter().any(|&b| b) {
+        return Held::default();
+    }
+    let some = M::from_fn(|l| ok0[l]);
+    let (ax, ay) = (some.select(ax, zero), some.select(ay, zero));
+    let (tx0, ty0) = (floor_lanes(ax), floor_lanes(ay));
+    let fx = ax - V(each(|l| tx0[l] as f32));
+    let fy = ay - V(each(|l| ty0[l] as f32));
+    let weights = [
+        (0, 0, (one - fx) * (one - fy)),
+        (1, 0, fx * (one - fy)),
+        (0, 1, (one - fx) * fy),
+        (1, 1, fx * fy),
+    ];
+    // Within i32: the taps lie within 1e9 + 1 of the frame.
+    let (w, h) = (
+        guide.width.min(i32::MAX as u32) as i32,
+        guide.height.min(i32::MAX as u32) as i32,
+    );
+    let (stride, row_len) = (prev.width, prev.row_len());
+    let mut wsum = zero;
+    let (mut f, mut c) = ([zero; 3], [zero; 3]);
+    let (mut len, mut lu, mut lu_diffuse) = (zero, zero, zero);
+    let mut mixed = [false; LANES];
+    for (k, (dx, dy, wt)) in weights.into_iter().enumerate() {
+        let mut j = [0usize; LANES];
+        let mut inside = [false; LANES];
+        for l in 0..LANES {
+            let (tx, ty) = (tx0[l] + dx, ty0[l] + dy);
+            // `&`, not `&&`: no branch per lane.
+            inside[l] = ok0[l]
+                & (allowed[l] & (1 << k) != 0)
+                & (wt.0[l] > 0.0)
+                & (tx >= 0)
+                & (ty >= 0)
+                & (tx < w)
+                & (ty < h);
+            let (cx, cy) = if inside[l] { (tx, ty) } else { (0, 0) };
+            j[l] = cy as usize * row_len + cx as usize;
+        }
+        if !inside.iter().any(|&b| b) {
+            continue;
+        }
+        // One load per field where the lanes' taps are consecutive pixels
+        // of a row, else a value per lane.
+        // The denoiser's taps need no test: their signals only.
+        let consecutive = (0..LANES).all(|l| inside[l] & (j[l] == j[0] + l));
+        let fields = if taps.is_some() {
+            record::SIGNALS
+        } else {
+            record::COUNT
+        };
+        let mut r = [zero; record::COUNT];
+        if consecutive {
+            for (k, r) in r[..fields].iter_mut().enumerate() {
+                *r = V::load(&prev.data, j[0] + k * stride);
+            }
+        } else {
+            for (k, r) in r[..fields].iter_mut().enumerate() {
+                for (v, &j) in r.0.iter_mut().zip(&j) {
+                    *v = prev.data[j + k * stride];
+                }
+            }
+        }
+        let mut valid = M::from_fn(|l| inside[l]);
+        if taps.is_none() {
+            valid = valid.and(same_surface_lanes(
+                (here.depth, &here.pos, &here.normal),
+                (
+                    r[record::DEPTH],
+                    [r[record::PX], r[record::PY], r[record::PZ]],
+                    (r[record::E0], r[record::E1]),
+                    r[record::LEN],
+                ),
+                s,
+            ));
+        }
+        let wt = valid.select(wt, zero);
+        wsum = wsum + wt;
+        let add = |acc: V, v: V| acc + valid.select(v * wt, zero);
+        for q in 0..3 {
+            f[q] = add(f[q], r[record::FACTOR + q]);
+            c[q] = add(c[q], r[record::COLOR + q]);
+        }
+        len = add(len, r[record::LEN]);
+        lu = add(lu, r[record::LU]);
+        lu_diffuse = add(lu_diffuse, r[record::LU_DIFFUSE]);
+        for (m, l) in mixed.iter_mut().zip(0..LANES) {
+            *m |= valid.lane(l) & (r[record::MIXED].0[l] != 0.0);
+        }
+    }
+    // A sliver of valid footprint is too little to trust.
+    let enough = wsum.ge(V::splat(1e-3));
+    let inv = one / enough.select(wsum, one);
+    let mut has: [bool; LANES] = each(|l| ok0[l] && wsum.0[l] >= 1e-3);
+    if taps.is_none() && s.light_test {
+        let now = (here.lu, here.lu_diffuse);
+        let changed = light_changed_lanes(now, (lu * inv, lu_diffuse * inv), s.u_change);
+        for l in 0..LANES {
+            has[l] &= !changed[l];
+        }
+    }
+    Held {
+        has,
+        mixed,
+        factor: [f[0] * inv, f[1] * inv, f[2] * inv],
+        color: [c[0] * inv, c[1] * inv, c[2] * inv],
+        len: len * inv,
     }
 }

@@ -5,13 +5,13 @@
 //! different sample sets and silently break the ratio, so the factor depends
 //! only on the history length, never on the signal values.
 
-use super::history::{History, Meta, decode_normal, field};
+use super::history::{History, field};
 use super::noise;
 use super::spatial::lanes::{self, M, V, each};
 use super::spatial::{self, LANES, Planes};
 use super::tiles::{self, TILE};
 use super::{DenoiseSettings, GuideBuffers, luminance};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use penumbra_isa::{self as isa, Kernel};
 use rayon::prelude::*;
 
@@ -52,8 +52,9 @@ struct Reprojected {
     passed: [u8; LANES],
 }
 
-/// Which of a pixel's four bilinear taps (in `bilinear_taps`' order: bit
-/// `k` for tap `k`) the reprojection took its history from; 0 where it kept
+/// Which of a pixel's four bilinear taps (bit `k` for tap `k`, in the
+/// order `(x0, y0)`, `(x0 + 1, y0)`, `(x0, y0 + 1)`, `(x0 + 1, y0 + 1)` from
+/// the footprint's top left pixel) the reprojection took its history from; 0 where it kept
 /// none (no surface, no motion vector, too little valid footprint, or the
 /// light changed). The colour resolve reads these instead of testing its
 /// own history again: its records hold the same surfaces, so its taps
@@ -399,7 +400,7 @@ fn ratio_lanes(s: &[V; 3], u: &[V; 3]) -> V {
 
 /// `encode_normal` per lane, the two components as the integers they are.
 #[inline(always)]
-fn encode_normal_lanes(n: &[V; 3]) -> (V, V) {
+pub(super) fn encode_normal_lanes(n: &[V; 3]) -> (V, V) {
     let zero = V::splat(0.0);
     let one = V::splat(1.0);
     let l1 = n[0].abs() + n[1].abs() + n[2].abs();
@@ -430,7 +431,7 @@ fn quantize(v: V) -> V {
 /// Stores the first `n` lanes of `v` at `at`: a whole group as one fixed
 /// copy (a copy of variable length is a library call).
 #[inline(always)]
-fn put(dst: &mut [f32], at: usize, v: &[f32; LANES], n: usize) {
+pub(super) fn put(dst: &mut [f32], at: usize, v: &[f32; LANES], n: usize) {
     if n == LANES {
         dst[at..at + LANES].copy_from_slice(v);
     } else {
@@ -441,9 +442,10 @@ fn put(dst: &mut [f32], at: usize, v: &[f32; LANES], n: usize) {
 /// Bilinear fetch of the previous accumulation at each lane's motion
 /// vector end, each of the 2x2 taps validated on its own (a tap across a
 /// silhouette is dropped and the rest renormalised); no history where
-/// disoccluded or where the light changed. Lane for lane the arithmetic of
-/// [`bilinear_taps`], [`same_surface`] and [`light_changed`]. `(gx, gy)`:
-/// the group's first pixel.
+/// disoccluded or where the light changed ([`same_surface_lanes`],
+/// [`light_changed`]). A tap off-screen or of zero weight is not read, and
+/// a motion vector's end that is not finite or lies far off-screen gives no
+/// history. `(gx, gy)`: the group's first pixel.
 #[inline(always)]
 fn reproject_lanes(
     prev: &History,
@@ -455,8 +457,6 @@ fn reproject_lanes(
 ) -> Reprojected {
     let (ax, ay) = (px.at[0] - 0.5, px.at[1] - 0.5);
     let depth = px.depth;
-    let [pos_x, pos_y, pos_z] = px.pos;
-    let [nx, ny, nz] = px.normal;
     // Finite and not far off-screen (no overflow in the casts).
     let lim = V::splat(1e9);
     let ok0: [bool; LANES] =
@@ -548,18 +548,11 @@ fn reproject_lanes(
         let (mlu, mlud) = (f[field::LU], f[field::LU_DIFFUSE]);
         let (ur, ug, ub) = (f[field::UR], f[field::UR + 1], f[field::UR + 2]);
         let (sr, sg, sz) = (f[field::SR], f[field::SR + 1], f[field::SR + 2]);
-        // `same_surface`, lane for lane.
-        let plane = nx * (mx - pos_x) + ny * (my - pos_y) + nz * (mz - pos_z);
-        let a = decode_normal_lanes(e0, e1);
-        let close = normal_close_lanes(a, (nx, ny, nz), s.min_normal_dot);
-        let near_depth = (md - depth).abs().le(depth * s.depth_tolerance);
-        let near_plane = plane.abs().le(depth * s.plane_tolerance);
-        let valid = M::from_fn(|l| inside[l])
-            .and(md.gt(zero))
-            .and(near_depth)
-            .and(near_plane)
-            .and(mlen.gt(zero))
-            .and(close);
+        let valid = M::from_fn(|l| inside[l]).and(same_surface_lanes(
+            (depth, &px.pos, &px.normal),
+            (md, [mx, my, mz], (e0, e1), mlen),
+            s,
+        ));
         for (p, l) in passed.iter_mut().zip(0..LANES) {
             *p |= u8::from(valid.lane(l)) << k;
         }
@@ -596,9 +589,10 @@ fn reproject_lanes(
     }
 }
 
-/// [`floor`] per lane, for values within 1e9.
+/// The floor of each lane as an integer, for values within 1e9, without a
+/// libm call (baseline x86-64 has no `roundss`).
 #[inline(always)]
-fn floor_lanes(v: V) -> [i32; LANES] {
+pub(super) fn floor_lanes(v: V) -> [i32; LANES] {
     each(|l| {
         let t = v.0[l] as i32;
         if (t as f32) > v.0[l] { t - 1 } else { t }
@@ -632,7 +626,7 @@ fn normal_close_lanes(a: (V, V, V), b: (V, V, V), min_dot: f32) -> M {
 
 /// `light_changed` per lane.
 #[inline(always)]
-fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LANES] {
+pub(super) fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LANES] {
     each(|l| {
         light_changed(
             (now.0.0[l], now.1.0[l]),
@@ -642,68 +636,29 @@ fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LA
     })
 }
 
-/// The 2x2 bilinear footprint, in the previous frame, of the end of pixel
-/// (x, y)'s motion vector, as [`bilinear_taps`] gives it: the colour
-/// resolve's history taps.
-#[inline]
-pub(super) fn bilinear_footprint(
-    guide: &GuideBuffers,
-    x: usize,
-    y: usize,
-) -> Option<[Option<(usize, f32)>; 4]> {
-    bilinear_taps(
-        guide.prev_pixel[y * guide.width as usize + x],
-        guide.width,
-        guide.height,
-    )
-}
-
-/// The four bilinear taps of continuous pixel position `at` (pixel centres
-/// at +0.5) on a `width` x `height` grid: each tap's (index, weight), in a
-/// fixed order, `None` for a tap off-screen or of zero weight (so a
-/// whole-pixel shift reads one tap). `None` overall when `at` is not finite
-/// or far off-screen (no history, and no overflow in the casts).
-#[inline]
-pub(super) fn bilinear_taps(
-    at: Vec2,
-    width: u32,
-    height: u32,
-) -> Option<[Option<(usize, f32)>; 4]> {
-    let (w, h) = (width as i64, height as i64);
-    let p = at - 0.5;
-    if !p.is_finite() || p.x.abs() > 1e9 || p.y.abs() > 1e9 {
-        return None;
-    }
-    let (x0, y0) = (floor(p.x), floor(p.y));
-    let (fx, fy) = (p.x - x0 as f32, p.y - y0 as f32);
-    let tap = |tx: i64, ty: i64, wt: f32| {
-        (wt > 0.0 && tx >= 0 && ty >= 0 && tx < w && ty < h).then(|| ((ty * w + tx) as usize, wt))
-    };
-    Some([
-        tap(x0, y0, (1.0 - fx) * (1.0 - fy)),
-        tap(x0 + 1, y0, fx * (1.0 - fy)),
-        tap(x0, y0 + 1, (1.0 - fx) * fy),
-        tap(x0 + 1, y0 + 1, fx * fy),
-    ])
-}
-
-/// The disocclusion test of one reprojection tap: the history record `m`
-/// holds the same surface as the current pixel (depth, tangent plane and
-/// normal agree) and has something accumulated. Shared with the colour
+/// The disocclusion test of one reprojection tap per lane: the history
+/// record holds the same surface as the lane's pixel (depth, tangent plane
+/// and normal agree) and has something accumulated. `(depth, pos, normal)`
+/// is the lane group's surface, the record's `(depth, pos, (e0, e1), len)`
+/// its depth, position, encoded normal and length. Shared with the colour
 /// resolve, so both histories are dropped at the same places.
-#[inline]
-pub(super) fn same_surface(
-    m: &Meta,
-    depth: f32,
-    pos: Vec3,
-    normal: Vec3,
+#[inline(always)]
+pub(super) fn same_surface_lanes(
+    (depth, pos, normal): (V, &[V; 3], &[V; 3]),
+    (md, mpos, (e0, e1), mlen): (V, [V; 3], (V, V), V),
     s: &DenoiseSettings,
-) -> bool {
-    m.depth > 0.0
-        && (m.depth - depth).abs() <= s.depth_tolerance * depth
-        && normal.dot(m.pos - pos).abs() <= s.plane_tolerance * depth
-        && m.len > 0.0
-        && normal_close(decode_normal(m.normal), normal, s.min_normal_dot)
+) -> M {
+    let zero = V::splat(0.0);
+    let [nx, ny, nz] = *normal;
+    let plane = nx * (mpos[0] - pos[0]) + ny * (mpos[1] - pos[1]) + nz * (mpos[2] - pos[2]);
+    let close = normal_close_lanes(decode_normal_lanes(e0, e1), (nx, ny, nz), s.min_normal_dot);
+    let near_depth = (md - depth).abs().le(depth * s.depth_tolerance);
+    let near_plane = plane.abs().le(depth * s.plane_tolerance);
+    md.gt(zero)
+        .and(near_depth)
+        .and(near_plane)
+        .and(mlen.gt(zero))
+        .and(close)
 }
 
 /// Below this diffuse share of `U` (in either frame) the diffuse part is too
@@ -730,26 +685,6 @@ pub(super) fn light_changed(now: (f32, f32), before: (f32, f32), tolerance: f32)
         differ(now.1, before.1)
     } else {
         differ(now.0, before.0)
-    }
-}
-
-/// floor as an integer without a libm call (baseline x86-64 has no roundss).
-#[inline]
-pub(super) fn floor(v: f32) -> i64 {
-    let t = v as i64;
-    if (t as f32) > v { t - 1 } else { t }
-}
-
-/// dot(a / |a|, b) >= min_dot for unit `b`, without normalising `a`.
-/// Forced inline: left as a call it showed up on its own in profiles of the
-/// per-tap reprojection test.
-#[inline(always)]
-fn normal_close(a: Vec3, b: Vec3, min_dot: f32) -> bool {
-    let d = a.dot(b);
-    if min_dot >= 0.0 {
-        d >= 0.0 && d * d >= min_dot * min_dot * a.length_squared()
-    } else {
-        d >= min_dot * a.length()
     }
 }
 
