@@ -32,6 +32,7 @@ impl Lobe {
     /// The lobe of a surface point with unit shading normal `n`, unit
     /// direction to the eye `wo`, GGX width `alpha` (of the microfacet
     /// normals) and specular share `share` in [0, 1] of its reflectance.
+    #[inline]
     pub fn new(n: Vec3, wo: Vec3, alpha: f32, share: f32) -> Lobe {
         let share = if share.is_finite() {
             share.clamp(0.0, 1.0)

@@ -73,13 +73,16 @@ impl Frame {
                         let (w, row0) = (width as usize, band.y0 as usize);
                         let tiles_w = w.div_ceil(TILE);
                         // Settled tiles draw nothing this frame (`settled_tiles`).
-                        let drawn = (0..n)
-                            .filter(|&k| {
-                                let (x, y) = (k % w, row0 + k / w);
-                                unsampled.is_empty()
-                                    || unsampled[(y / TILE) * tiles_w + x / TILE] == 0
-                            })
-                            .map(|k| (k, k));
+                        // Walked row by row: no division per pixel.
+                        let drawn = (0..n / w.max(1)).flat_map(|r| {
+                            let tiles = (!unsampled.is_empty()).then(|| {
+                                let at = (row0 + r) / TILE * tiles_w;
+                                &unsampled[at..at + tiles_w]
+                            });
+                            (0..w)
+                                .filter(move |&x| tiles.is_none_or(|t| t[x / TILE] == 0))
+                                .map(move |x| (r * w + x, r * w + x))
+                        });
                         t = job.samples(
                             band.y0, scratch, band.gbuf, band.u, drawn, band.un, band.sn, t,
                         );
