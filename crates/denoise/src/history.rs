@@ -2,8 +2,8 @@
 //! next frame needs to validate a reprojection tap.
 //!
 //! The record is kept small (17 values with both signals): the normal is
-//! octahedron-encoded. The colour resolve keeps the same metadata in planes
-//! of its own layout (`History::with_fields`).
+//! octahedron-encoded. The colour resolve keeps the same metadata in
+//! records of its own (`resolve::Records`).
 
 #[cfg(test)]
 use glam::{Vec2, Vec3};
@@ -30,38 +30,30 @@ pub(crate) mod field {
     pub const COUNT: usize = 17;
 }
 
-/// One frame of history, a plane per field (`field` for the denoiser's),
-/// stored row by row: image row `y` of every field is one block of
-/// `fields * width` values (field `k` at `k * width`), so a pass writes a
-/// row of every field on its own, and a lane group whose taps are
-/// consecutive pixels of one row (a still camera: every tap; a smooth
-/// camera move: most) reads each field with one load. A pixel without a
-/// surface holds zeros: depth 0, no history to give.
+/// One frame of history, a plane per `field`, stored row by row: image
+/// row `y` of every field is one block of `COUNT * width` values (field
+/// `k` at `k * width`), so the temporal pass writes a row of every field
+/// on its own, and a lane group whose taps are consecutive pixels of one
+/// row (a still camera: every tap; a smooth camera move: most) reads each
+/// field with one load. A pixel without a surface holds zeros: depth 0,
+/// no history to give.
 pub(crate) struct History {
     pub data: Vec<f32>,
     pub width: usize,
-    fields: usize,
 }
 
 impl History {
-    /// The denoiser's history (`field`).
     pub fn new(width: usize, height: usize) -> History {
-        History::with_fields(width, height, field::COUNT)
-    }
-
-    /// A history of `fields` planes.
-    pub fn with_fields(width: usize, height: usize, fields: usize) -> History {
         History {
-            data: vec![0.0; fields * width * height],
+            data: vec![0.0; field::COUNT * width * height],
             width,
-            fields,
         }
     }
 
     /// Values of one image row of every field.
     #[inline(always)]
     pub fn row_len(&self) -> usize {
-        self.fields * self.width
+        field::COUNT * self.width
     }
 
     /// Field `k` of image row `y`.
@@ -80,7 +72,7 @@ impl History {
 
     /// Pixels held.
     pub fn len(&self) -> usize {
-        self.data.len() / self.fields
+        self.data.len() / field::COUNT
     }
 
     /// Forget everything: every tap of the next reprojection fails its depth test.

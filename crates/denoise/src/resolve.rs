@@ -18,7 +18,6 @@
 //! `U · dn(S_N) / dn(U_N)` with one set of weights; this stage only averages
 //! finished frames.
 
-use super::history::History;
 use super::spatial::LANES;
 use super::spatial::lanes::{M, V, each};
 use super::temporal::{
@@ -53,9 +52,8 @@ impl Default for ResolveSettings {
     }
 }
 
-/// The fields of a pixel's resolve record, one `f32` plane each
-/// (`History`'s layout): what the next frame validates the history with,
-/// and the resolved signals.
+/// The fields of a pixel's resolve record (`Records`): what the next frame
+/// validates the history with, and the resolved signals.
 mod record {
     /// Frames averaged (capped); fractional after bilinear reprojection.
     pub const LEN: usize = 0;
@@ -84,8 +82,8 @@ mod record {
 pub struct Resolve {
     width: u32,
     height: u32,
-    prev: History,
-    cur: History,
+    prev: Records,
+    cur: Records,
     /// Per pixel of the last frame resolved: `mixed`.
     mixed: Vec<bool>,
     /// A moving camera's inputs, sanitized, as planes (`Inputs`): the
@@ -110,8 +108,8 @@ impl Resolve {
         Resolve {
             width,
             height,
-            prev: History::with_fields(w, h, record::COUNT),
-            cur: History::with_fields(w, h, record::COUNT),
+            prev: Records::new(w, h),
+            cur: Records::new(w, h),
             mixed: vec![false; w * h],
             inputs: Inputs::new(w, h),
             has_history: false,
@@ -128,8 +126,9 @@ impl Resolve {
 
     /// Frames averaged per pixel after the last call (0 before any).
     pub fn history_len(&self) -> Vec<f32> {
-        (0..self.height as usize)
-            .flat_map(|y| self.prev.field_row(record::LEN, y).iter().copied())
+        let (w, h) = (self.width as usize, self.height as usize);
+        (0..w * h)
+            .map(|i| self.prev.data[self.prev.at(i % w, i / w) + record::LEN * LANES])
             .collect()
     }
 
@@ -248,6 +247,46 @@ impl Resolve {
     }
 }
 
+/// Values of a lane group's records: each field's eight lanes in turn.
+const GROUP: usize = record::COUNT * LANES;
+
+/// One frame of resolve records, by lane groups: the records of the eight
+/// pixels of a row that a lane group covers are one block (`GROUP`), field
+/// `k` at `k * LANES`, so the pass reads and writes one stream of records
+/// instead of a stream per field (streams the prefetchers lose track of).
+/// A row holds whole groups, the last one padded.
+struct Records {
+    data: Vec<f32>,
+    /// Lane groups per row.
+    groups: usize,
+}
+
+impl Records {
+    fn new(width: usize, height: usize) -> Records {
+        let groups = width.div_ceil(LANES);
+        Records {
+            data: vec![0.0; groups * GROUP * height],
+            groups,
+        }
+    }
+
+    /// Values of one row's records.
+    fn row_len(&self) -> usize {
+        self.groups * GROUP
+    }
+
+    /// Where pixel `(x, y)`'s first field lies (field `k` at `k * LANES`
+    /// further).
+    #[inline(always)]
+    fn at(&self, x: usize, y: usize) -> usize {
+        y * self.row_len() + x / LANES * GROUP + x % LANES
+    }
+
+    fn clear(&mut self) {
+        self.data.fill(0.0);
+    }
+}
+
 /// A lane group of one row as the resolve reads it, a lane per pixel: the
 /// surface (depth 0 where there is none), the light at it, and this
 /// frame's sanitized signals.
@@ -328,7 +367,7 @@ struct RowOut<'a> {
     y: usize,
     /// History length cap.
     cap: f32,
-    /// The row's block of the record's planes (`History`).
+    /// The row's records (`Records`).
     record: &'a mut [f32],
     mixed: &'a mut [bool],
 }
@@ -345,7 +384,7 @@ impl RowOut<'_> {
         held: &Held,
         (factor, color): (&mut [Vec3], &mut [Vec3]),
     ) {
-        let w = self.mixed.len();
+        let at = x0 / LANES * GROUP;
         let one = V::splat(1.0);
         let has = M::from_fn(|l| held.has[l]);
         let len_b = (held.len + 1.0).min(V::splat(self.cap));
@@ -365,11 +404,11 @@ impl RowOut<'_> {
         let mixed: [bool; LANES] = each(|l| held.has[l] && held.mixed[l]);
         let (e0, e1) = encode_normal_lanes(&here.normal);
         let mixed_v = V(each(|l| f32::from(u8::from(mixed[l]))));
-        // One store per plane, written out plane by plane: an array of
+        // One store per field, written out field by field: an array of
         // lanes to loop over is copied through memory first.
         macro_rules! store {
             ($($k:expr => $v:expr),* $(,)?) => {
-                $(put(self.record, $k * w + x0, &$v.0, n);)*
+                $(put(self.record, at + $k * LANES, &$v.0, n);)*
             };
         }
         store!(
@@ -402,7 +441,7 @@ impl RowOut<'_> {
 /// resolved in place.
 struct StillRow<'a, 'g> {
     guide: &'a GuideBuffers<'g>,
-    prev: Option<&'a History>,
+    prev: Option<&'a Records>,
     surface: &'a DenoiseSettings,
     out: RowOut<'a>,
     signals: (&'a mut [Vec3], &'a mut [Vec3]),
@@ -440,21 +479,16 @@ impl Kernel for StillRow<'_, '_> {
 /// the lights change.
 #[inline(always)]
 fn still_held(
-    prev: &History,
+    prev: &Records,
     (x0, y, n): (usize, usize, usize),
     here: &Here,
     s: &DenoiseSettings,
 ) -> Held {
-    let w = prev.width;
-    let base = y * prev.row_len() + x0;
+    let base = prev.at(x0, y);
     // Every field but the light's, which only a moving camera tests.
     let mut f = [V::default(); record::COUNT];
     for (k, f) in f[..record::LU].iter_mut().enumerate() {
-        if n == LANES {
-            *f = V::load(&prev.data, base + k * w);
-        } else {
-            f.0[..n].copy_from_slice(&prev.data[base + k * w..base + k * w + n]);
-        }
+        *f = V::load(&prev.data, base + k * LANES);
     }
     let zero = V::splat(0.0);
     let (md, mlen) = (f[record::DEPTH], f[record::LEN]);
@@ -493,7 +527,7 @@ fn still_held(
 /// frame's 3x3 neighbourhood (no ghost trails), then blended.
 struct MovedRow<'a, 'g> {
     guide: &'a GuideBuffers<'g>,
-    prev: &'a History,
+    prev: &'a Records,
     surface: &'a DenoiseSettings,
     taps: Option<&'a [Taps]>,
     clamp: bool,
@@ -646,7 +680,7 @@ impl Inputs {
 /// taps summed in their order.
 #[inline(always)]
 fn moved_held(
-    prev: &History,
+    prev: &Records,
     guide: &GuideBuffers,
     (x0, y, n): (usize, usize, usize),
     here: &Here,
@@ -695,7 +729,7 @@ fn moved_held(
         guide.width.min(i32::MAX as u32) as i32,
         guide.height.min(i32::MAX as u32) as i32,
     );
-    let (stride, row_len) = (prev.width, prev.row_len());
+    let row_len = prev.row_len();
     let mut wsum = zero;
     let (mut f, mut c) = ([zero; 3], [zero; 3]);
     let (mut len, mut lu, mut lu_diffuse) = (zero, zero, zero);
@@ -714,13 +748,14 @@ fn moved_held(
                 & (tx < w)
                 & (ty < h);
             let (cx, cy) = if inside[l] { (tx, ty) } else { (0, 0) };
-            j[l] = cy as usize * row_len + cx as usize;
+            let cx = cx as usize;
+            j[l] = cy as usize * row_len + cx / LANES * GROUP + cx % LANES;
         }
         if !inside.iter().any(|&b| b) {
             continue;
         }
-        // One load per field where the lanes' taps are consecutive pixels
-        // of a row, else a value per lane.
+        // One load per field where the lanes' taps are one lane group's
+        // pixels, else a value per lane.
         // The denoiser's taps need no test: their signals only.
         let consecutive = (0..LANES).all(|l| inside[l] & (j[l] == j[0] + l));
         let fields = if taps.is_some() {
@@ -731,12 +766,12 @@ fn moved_held(
         let mut r = [zero; record::COUNT];
         if consecutive {
             for (k, r) in r[..fields].iter_mut().enumerate() {
-                *r = V::load(&prev.data, j[0] + k * stride);
+                *r = V::load(&prev.data, j[0] + k * LANES);
             }
         } else {
             for (k, r) in r[..fields].iter_mut().enumerate() {
                 for (v, &j) in r.0.iter_mut().zip(&j) {
-                    *v = prev.data[j + k * stride];
+                    *v = prev.data[j + k * LANES];
                 }
             }
         }
