@@ -21,7 +21,8 @@
 use super::spatial::LANES;
 use super::spatial::lanes::{M, V, each};
 use super::temporal::{
-    Taps, encode_normal_lanes, floor_lanes, light_changed_lanes, put, same_surface_lanes, sanitize,
+    Taps, bilinear_weights, encode_normal_lanes, floor_lanes, frame_i32, kept, put,
+    same_surface_lanes, sanitize,
 };
 use super::{DenoiseSettings, GuideBuffers, luminance};
 use glam::Vec3;
@@ -688,7 +689,6 @@ fn moved_held(
     s: &DenoiseSettings,
 ) -> Held {
     let zero = V::splat(0.0);
-    let one = V::splat(1.0);
     let row = y * guide.width as usize;
     let (mut ax, mut ay) = (zero, zero);
     // Per lane the taps it may take (bit `k` for tap `k`).
@@ -716,19 +716,8 @@ fn moved_held(
     let some = M::from_fn(|l| ok0[l]);
     let (ax, ay) = (some.select(ax, zero), some.select(ay, zero));
     let (tx0, ty0) = (floor_lanes(ax), floor_lanes(ay));
-    let fx = ax - V(each(|l| tx0[l] as f32));
-    let fy = ay - V(each(|l| ty0[l] as f32));
-    let weights = [
-        (0, 0, (one - fx) * (one - fy)),
-        (1, 0, fx * (one - fy)),
-        (0, 1, (one - fx) * fy),
-        (1, 1, fx * fy),
-    ];
-    // Within i32: the taps lie within 1e9 + 1 of the frame.
-    let (w, h) = (
-        guide.width.min(i32::MAX as u32) as i32,
-        guide.height.min(i32::MAX as u32) as i32,
-    );
+    let weights = bilinear_weights((ax, ay), (&tx0, &ty0));
+    let (w, h) = frame_i32(guide.width, guide.height);
     let row_len = prev.row_len();
     let mut wsum = zero;
     let (mut f, mut c) = ([zero; 3], [zero; 3]);
@@ -802,17 +791,9 @@ fn moved_held(
             *m |= valid.lane(l) & (r[record::MIXED].0[l] != 0.0);
         }
     }
-    // A sliver of valid footprint is too little to trust.
-    let enough = wsum.ge(V::splat(1e-3));
-    let inv = one / enough.select(wsum, one);
-    let mut has: [bool; LANES] = each(|l| ok0[l] && wsum.0[l] >= 1e-3);
-    if taps.is_none() && s.light_test {
-        let now = (here.lu, here.lu_diffuse);
-        let changed = light_changed_lanes(now, (lu * inv, lu_diffuse * inv), s.u_change);
-        for l in 0..LANES {
-            has[l] &= !changed[l];
-        }
-    }
+    let light =
+        (taps.is_none() && s.light_test).then_some(((here.lu, here.lu_diffuse), (lu, lu_diffuse)));
+    let (has, inv) = kept(&ok0, wsum, light, s.u_change);
     Held {
         has,
         mixed,

@@ -477,20 +477,8 @@ fn reproject_lanes(
     } else {
         (floor_lanes(ax), floor_lanes(ay))
     };
-    let fx = ax - V(each(|l| x0[l] as f32));
-    let fy = ay - V(each(|l| y0[l] as f32));
-    let one = V::splat(1.0);
-    let taps = [
-        (0, 0, (one - fx) * (one - fy)),
-        (1, 0, fx * (one - fy)),
-        (0, 1, (one - fx) * fy),
-        (1, 1, fx * fy),
-    ];
-    // Within i32: the taps lie within 1e9 + 1 of the frame.
-    let (w, h) = (
-        width.min(i32::MAX as u32) as i32,
-        height.min(i32::MAX as u32) as i32,
-    );
+    let taps = bilinear_weights((ax, ay), (&x0, &y0));
+    let (w, h) = frame_i32(width, height);
     // A field's row, and a row of every field (`History`'s layout).
     let stride = prev.width;
     let row = prev.row_len();
@@ -567,17 +555,10 @@ fn reproject_lanes(
         lu_prev = add(lu_prev, mlu);
         lud_prev = add(lud_prev, mlud);
     }
-    // A sliver of valid footprint is too little to trust.
-    let enough = wsum.ge(V::splat(1e-3));
-    let inv = one / enough.select(wsum, one);
-    let mut ok: [bool; LANES] = each(|l| ok0[l] && wsum.0[l] >= 1e-3);
-    if s.light_test {
-        let now = (px.lu, px.lu_diffuse);
-        let changed = light_changed_lanes(now, (lu_prev * inv, lud_prev * inv), s.u_change);
-        for l in 0..LANES {
-            ok[l] &= !changed[l];
-        }
-    }
+    let light = s
+        .light_test
+        .then_some(((px.lu, px.lu_diffuse), (lu_prev, lud_prev)));
+    let (ok, inv) = kept(&ok0, wsum, light, s.u_change);
     Reprojected {
         ok,
         un: [un[0] * inv, un[1] * inv, un[2] * inv],
@@ -587,6 +568,62 @@ fn reproject_lanes(
         len: len * inv,
         passed: each(|l| if ok[l] { passed[l] } else { 0 }),
     }
+}
+
+/// Per lane whether a reprojection keeps its history, and the reciprocal
+/// of its taps' summed weight `wsum`: the lane had a motion vector's end to
+/// fetch at (`ok0`), a sliver of valid footprint is too little to trust,
+/// and where `light` gives this frame's luminances of `U` and of its
+/// diffuse part beside the taps' weighted sums of them, the light did not
+/// change ([`light_changed`], within `tolerance`).
+#[inline(always)]
+pub(super) fn kept(
+    ok0: &[bool; LANES],
+    wsum: V,
+    light: Option<((V, V), (V, V))>,
+    tolerance: f32,
+) -> ([bool; LANES], V) {
+    let one = V::splat(1.0);
+    let enough = wsum.ge(V::splat(1e-3));
+    let inv = one / enough.select(wsum, one);
+    let mut ok: [bool; LANES] = each(|l| ok0[l] && wsum.0[l] >= 1e-3);
+    if let Some((now, (lu, lu_diffuse))) = light {
+        let changed = light_changed_lanes(now, (lu * inv, lu_diffuse * inv), tolerance);
+        for l in 0..LANES {
+            ok[l] &= !changed[l];
+        }
+    }
+    (ok, inv)
+}
+
+/// The four bilinear taps of each lane's position `(ax, ay)` (pixel
+/// centres at whole numbers) whose floors are `(x0, y0)`: each tap's
+/// offset from the floors and its weight per lane, in the taps' fixed
+/// order (`Taps`).
+#[inline(always)]
+pub(super) fn bilinear_weights(
+    (ax, ay): (V, V),
+    (x0, y0): (&[i32; LANES], &[i32; LANES]),
+) -> [(i32, i32, V); 4] {
+    let fx = ax - V(each(|l| x0[l] as f32));
+    let fy = ay - V(each(|l| y0[l] as f32));
+    let one = V::splat(1.0);
+    [
+        (0, 0, (one - fx) * (one - fy)),
+        (1, 0, fx * (one - fy)),
+        (0, 1, (one - fx) * fy),
+        (1, 1, fx * fy),
+    ]
+}
+
+/// The frame's size as `i32`, for tap coordinates (the taps lie within
+/// 1e9 + 1 of the frame).
+#[inline(always)]
+pub(super) fn frame_i32(width: u32, height: u32) -> (i32, i32) {
+    (
+        width.min(i32::MAX as u32) as i32,
+        height.min(i32::MAX as u32) as i32,
+    )
 }
 
 /// The floor of each lane as an integer, for values within 1e9, without a
@@ -626,7 +663,7 @@ fn normal_close_lanes(a: (V, V, V), b: (V, V, V), min_dot: f32) -> M {
 
 /// `light_changed` per lane.
 #[inline(always)]
-pub(super) fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LANES] {
+fn light_changed_lanes(now: (V, V), before: (V, V), tolerance: f32) -> [bool; LANES] {
     each(|l| {
         light_changed(
             (now.0.0[l], now.1.0[l]),
