@@ -15,6 +15,13 @@
 //! resolves the lobe's structure, where four nodes cannot follow `f` either.
 //! It also fades with the light's share `s` of the lobe (factor `1 - s`):
 //! over the whole lobe the LTC integral is already the fitted magnitude.
+//! Not so for a view below the shading normal's horizon (a bent normal
+//! seen from its back): `U` looks up the table's grazing entry there, a
+//! lobe of another shape and mass than the true view's (which peaks along
+//! the view ray's continuation and is cut off, just under that, where the
+//! half vector goes under the surface). There the nodes, still placed by
+//! the grazing lobe, integrate the exact lobe at the true view, and that
+//! cubature replaces the LTC integral.
 //!
 //! Nodes: a fan of spherical triangles over the light's image in lobe A's
 //! LTC space, from its centroid direction, one node per triangle at its
@@ -90,6 +97,9 @@ impl ExactLobes {
     /// a² |h|^4 wz / (2 π cos_o q² (c lo2 + t))`; `B = A (1 - wo.h/|h|)^5`.
     fn eval(&self, w: Vec3) -> (f32, f32) {
         let h = w + self.wo;
+        if h.z <= 0.0 {
+            return (0.0, 0.0);
+        }
         let l2 = h.length_squared().max(1e-30);
         let q = h.x * h.x + h.y * h.y + self.a2 * h.z * h.z;
         let c = w.z.max(MIN_COS);
@@ -251,6 +261,8 @@ pub struct CorrectionLanes {
     /// The lobes' magnitudes, for the factors.
     maga: Wide,
     magb: Wide,
+    /// 1 where the view is below the horizon, 0 above it (`factor_lanes`).
+    below: Wide,
 }
 
 /// How many constants `CorrectionLanes` holds per lane.
@@ -288,12 +300,12 @@ impl CorrectionLanes {
             k: c[21],
             maga: c[22],
             magb: c[23],
+            below: c[24],
         }
     }
 }
 
-/// `CorrectionLanes`' constants of four lanes, in its field order (the
-/// last slot unused).
+/// `CorrectionLanes`' constants of four lanes, in its field order.
 #[inline(always)]
 fn half_constants(cells: &CellLanes, [wox, woz]: [Vec4; 2], alpha: Vec4) -> [Vec4; CONSTANTS] {
     // One division for both lobes' `1 / hmass`.
@@ -336,7 +348,7 @@ fn half_constants(cells: &CellLanes, [wox, woz]: [Vec4; 2], alpha: Vec4) -> [Vec
         k,
         cells.mag(),
         cells.fres(),
-        Vec4::ZERO,
+        Vec4::select(woz.cmplt(Vec4::ZERO), Vec4::ONE, Vec4::ZERO),
     ]
 }
 
@@ -379,7 +391,9 @@ fn exact_lanes(k: &CorrectionLanes, w: &Wide3) -> (Wide, Wide) {
     let t = t2 * t2.rsqrt_approx();
     let num = k.a2 * l2 * l2 * w[2];
     let den = (k.k * q * q * c.mul_add(k.lo2, t)).max(Wide::splat(1e-30));
-    let a = num / den;
+    // D is 0 where the half vector is under the surface: only a view
+    // below the horizon puts it there for a direction above.
+    let a = h[2].gt(Wide::ZERO).select(num / den, Wide::ZERO);
     let wo_w = k.wox.mul_add(w[0], k.woz * w[2]);
     let cos_oh = (wo_w + Wide::ONE) * l2.rsqrt_approx();
     let m = Wide::ONE - cos_oh.clamp(0.0, 1.0);
@@ -538,8 +552,8 @@ fn factors(
     };
     let [qfa, qfb, qga, qgb] = sums;
     (
-        factor_lanes(qfa, qga, share_a, k.maga),
-        factor_lanes(qfb, qgb, share_b, k.magb),
+        factor_lanes(qfa, qga, share_a, k.maga, k.below),
+        factor_lanes(qfb, qgb, share_b, k.magb, k.below),
     )
 }
 
@@ -783,7 +797,7 @@ fn node(k: &CorrectionLanes, (num, den, m): (Wide, Wide, Wide3), sums: &mut [Wid
 
 /// `factor` per lane.
 #[inline(always)]
-fn factor_lanes(qf: Wide, qg: Wide, share: Wide, mag: Wide) -> Wide {
+fn factor_lanes(qf: Wide, qg: Wide, share: Wide, mag: Wide, below: Wide) -> Wide {
     let s = share.clamp(0.0, 1.0);
     let ltc = s * mag;
     let r = (qf / qg).min(Wide::splat(MAX_RATIO));
@@ -797,7 +811,16 @@ fn factor_lanes(qf: Wide, qg: Wide, share: Wide, mag: Wide) -> Wide {
         .and(qf.ge(Wide::ZERO))
         .and(miss.finite())
         .and(k.finite());
-    ok.select(k.clamp(0.0, MAX_RATIO), Wide::ONE)
+    let k = ok.select(k.clamp(0.0, MAX_RATIO), Wide::ONE);
+    // Below the horizon the model is the grazing view's lobe, not this
+    // one's: the nodes' integral of the exact lobe stands alone, and may
+    // be any multiple of the model's where the model has little mass.
+    let direct = qf / ltc;
+    let direct_ok = ltc
+        .gt(Wide::ZERO)
+        .and(qf.ge(Wide::ZERO))
+        .and(direct.finite());
+    below.gt(Wide::ZERO).and(direct_ok).select(direct, k)
 }
 
 #[cfg(test)]
@@ -817,7 +840,7 @@ mod tests {
     fn exact_lobes_equal_the_brdf() {
         for &r in &[0.05f32, 0.2, 0.5, 1.0] {
             let alpha = brdf::alpha_from_roughness(r);
-            for &tv in &[0.0f32, 0.7, 1.5, 1.5607] {
+            for &tv in &[0.0f32, 0.7, 1.5, 1.5607, 1.62, 1.9] {
                 let wo = Vec3::new(tv.sin(), 0.0, tv.cos());
                 let e = ExactLobes::new(wo, alpha);
                 // The lane version the correction runs.

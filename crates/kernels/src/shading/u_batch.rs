@@ -331,7 +331,9 @@ impl PixelBatch {
             CellLanes::from_packed(&packed[1]),
         ];
         let f = CellLanes::join(&halves[0], &halves[1]);
-        let c = cells.cos_v.clamp(0.0f32, 1.0f32);
+        // The true view, below the horizon too (the cell is the grazing
+        // one there; the correction's exact lobe is not).
+        let c = cells.cos_v.clamp(-1.0f32, 1.0f32);
         let view = [
             lobe.select((Wide::ONE - c * c).sqrt(), Wide::ZERO),
             lobe.select(c, Wide::ONE),

@@ -11,8 +11,10 @@
 //! - The polygon is clipped to the upper hemisphere before anything is
 //!   integrated (no leak from below the horizon); the LTC lobe is then clipped
 //!   again in its own cosine space.
-//! - Views below the horizon (shading normals) use the grazing entry of the
-//!   table; `roughness` is clamped to [0, 1].
+//! - Views below the horizon (a shading normal bent away from the eye) use
+//!   the grazing entry of the table, and the shape correction takes that
+//!   lobe to the BRDF at the true view (`ltc_correction`); `roughness` is
+//!   clamped to [0, 1].
 
 use super::brdf::ShadingBasis;
 use super::ltc;
@@ -180,7 +182,7 @@ pub fn unshadowed_lobes_among(
     // Each lobe: LTC mixed with the clamped cosine (whose integral is `ff`),
     // as the light's share of the lobe, then corrected for the LTC's shape
     // error with the exact BRDF (`ltc_correction`).
-    let cos_v = sp.n.dot(sp.wo).clamp(0.0, 1.0);
+    let cos_v = sp.n.dot(sp.wo).clamp(-1.0, 1.0);
     let wo = Vec3::new((1.0 - cos_v * cos_v).sqrt(), 0.0, cos_v);
     let alpha = super::brdf::alpha_from_roughness(sp.roughness);
     let share_a = (1.0 - c.mix) * form_factor(ia) as f32 / c.hmass + c.mix * ff;
