@@ -3,7 +3,7 @@ use glam::{DVec3, Vec2, Vec3};
 use penumbra::sampling::spherical_rect::SphericalRect;
 use penumbra::sampling::spherical_tri;
 use penumbra::sampling::{
-    Pcg32, SOLID_ANGLE_AREA_FALLBACK, intersect_light, light_pdf, sample_light,
+    Pcg32, PreparedLight, SOLID_ANGLE_AREA_FALLBACK, intersect_light, light_pdf, sample_light,
     sample_light_area_uniform,
 };
 use penumbra::scene::Light;
@@ -483,4 +483,59 @@ fn fan_samples_of_a_small_polygon_land_on_the_polygon() {
     }
     let s = sample_light(&l, p, Vec2::new(0.961_508_3, 0.452_347_2)).expect("a sample");
     assert!(intersect_light(&l, p, s.wi).is_some(), "{s:?}");
+}
+
+/// GGX alpha of a sharp lobe (roughness 0.12) and of a rough one (0.7).
+const SHARP_ALPHA: f32 = 0.0144;
+const ROUGH_ALPHA: f32 = 0.49;
+
+/// A point below the test lights, farther than `P` (outside every light's
+/// bounding sphere).
+const FAR: Vec3 = Vec3::new(0.1, -2.0, 0.05);
+
+/// A view whose mirror direction about +Y is `mirror`.
+fn view_mirroring(mirror: Vec3) -> Vec3 {
+    let m = mirror.normalize();
+    (2.0 * m.dot(Vec3::Y) * Vec3::Y - m).normalize()
+}
+
+#[test]
+fn a_sharp_lobe_pointing_at_a_light_is_not_off_it() {
+    for (name, l) in lights() {
+        let prepared = PreparedLight::new(&l);
+        let centre = l.vertices.iter().copied().sum::<Vec3>() / l.vertices.len() as f32;
+        let wo = view_mirroring(centre - FAR);
+        assert!(
+            !prepared.lobe_misses(FAR, Vec3::Y, wo, SHARP_ALPHA),
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn a_sharp_lobe_pointing_away_from_a_light_is_off_it() {
+    // The mirror direction near the horizon, away from every test light
+    // (all above the point): tens of lobe widths off.
+    let wo = view_mirroring(Vec3::new(-1.0, 0.05, -1.0));
+    for (name, l) in lights() {
+        assert!(
+            PreparedLight::new(&l).lobe_misses(FAR, Vec3::Y, wo, SHARP_ALPHA),
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn a_rough_lobe_or_a_point_inside_the_lights_sphere_is_never_off() {
+    let wo = view_mirroring(Vec3::new(-1.0, 0.05, -1.0));
+    for (name, l) in lights() {
+        let prepared = PreparedLight::new(&l);
+        assert!(!prepared.lobe_misses(P, Vec3::Y, wo, ROUGH_ALPHA), "{name}");
+        let centre = l.vertices.iter().copied().sum::<Vec3>() / l.vertices.len() as f32;
+        let near = centre - 1e-3 * l.normal;
+        assert!(
+            !prepared.lobe_misses(near, Vec3::Y, wo, SHARP_ALPHA),
+            "{name}"
+        );
+    }
 }

@@ -17,7 +17,9 @@ use super::lanes8::{
     F, F3, FM, add3, clampc, cross, dot, ds, feq, finite, finite3, fmax, fnan, fs, max_element,
     mul3, narrow, normalize, scale3, select3, splat3, splat3d, sub3, widen,
 };
-use super::light::{EDGE_SLACK, MAX_TRIS, PreparedLight, SOLID_ANGLE_AREA_FALLBACK};
+use super::light::{
+    EDGE_SLACK, LOBE_OFF_LIGHT_SHARE, MAX_TRIS, PreparedLight, SOLID_ANGLE_AREA_FALLBACK,
+};
 use super::spherical_rect::SphericalRectLanes;
 use super::spherical_tri;
 use super::trig;
@@ -42,6 +44,9 @@ pub struct DrawLanesIn {
     pub roughness: F,
     /// Probability of having chosen the light.
     pub p_choose: F,
+    /// 1 where the specular lobe points away from the light, 0 elsewhere
+    /// (`PreparedLight::lobe_misses`, decided by the caller).
+    pub lobe_off: F,
     /// The sample's random numbers: strategy, lobe and direction.
     pub u_strategy: F,
     pub u_lobe: F,
@@ -415,7 +420,10 @@ fn draw_with(light: &LanesLight, i: &DrawLanesIn, rect: bool) -> DrawLanesOut {
     // Below the fallback solid angle the scalar sampler samples by area.
     let area = sampler_ok.and(omega.lt(fs(SOLID_ANGLE_AREA_FALLBACK)));
     // light_strategy_probability, and the light strategy's draw.
-    let spec = clampc(lobe_solid_angle / (lobe_solid_angle + omega), 0.1, 0.9);
+    let spec = i.lobe_off.gt(fs(0.0)).select(
+        fs(LOBE_OFF_LIGHT_SHARE),
+        clampc(lobe_solid_angle / (lobe_solid_angle + omega), 0.1, 0.9),
+    );
     let p_light = p_spec
         .le(fs(0.0))
         .select(fs(1.0), (fs(1.0) - p_spec) + p_spec * spec);

@@ -65,6 +65,10 @@ pub struct PreparedLight {
     pub(crate) fan_cross: [DVec3; MAX_TRIS],
     /// Corner (world space) and frame when the light is a true rectangle.
     pub(crate) rect: Option<(Vec3, RectFrame)>,
+    /// The vertices' centroid and the largest distance of a vertex from
+    /// it: a sphere holding the light (`lobe_misses`).
+    centre: Vec3,
+    radius: f32,
 }
 
 /// The light as a rectangle `(corner, ex, ey)`, if it is one: a quad whose
@@ -117,7 +121,14 @@ impl PreparedLight {
         }
         let rect = as_rect(light, &verts[..n])
             .and_then(|(corner, ex, ey)| Some((corner, RectFrame::new(ex, ey)?)));
+        let centre = verts[..n].iter().copied().sum::<Vec3>() / n.max(1) as f32;
+        let radius = verts[..n]
+            .iter()
+            .map(|v| (*v - centre).length())
+            .fold(0.0, f32::max);
         PreparedLight {
+            centre,
+            radius,
             verts,
             n,
             normal,
@@ -143,6 +154,42 @@ impl PreparedLight {
     #[inline]
     pub fn is_rect(&self) -> bool {
         self.rect.is_some()
+    }
+
+    /// Whether the specular lobe of GGX `alpha` for the view `wo` about the
+    /// shading normal `n` at `p` points away from the light: its mirror
+    /// direction lies more than `LOBE_WIDTHS_OFF` lobe widths (`2 alpha`,
+    /// the spread of the mirror directions) outside the cone of the
+    /// light's bounding sphere. Then the light sits in the lobe's tail and
+    /// BRDF samples mostly miss it (`LOBE_OFF_LIGHT_SHARE`). Conservative:
+    /// a point inside the sphere, or a degenerate view, is never off.
+    pub fn lobe_misses(&self, p: Vec3, n: Vec3, wo: Vec3, alpha: f32) -> bool {
+        // The margin in radians; a lobe this wide is sampled from the light
+        // anyway (`light_strategy_probability`'s solid angles), so wider
+        // ones are left as they are and the margin's cosine and sine are
+        // short series (to 3e-3 at 1 rad).
+        let margin = LOBE_WIDTHS_OFF * 2.0 * alpha;
+        let to = self.centre - p;
+        let dist2 = to.length_squared();
+        let inside = dist2.is_nan() || dist2 <= self.radius * self.radius;
+        if self.n < 3 || margin.is_nan() || margin >= 1.0 || inside {
+            return false;
+        }
+        let mirror = 2.0 * n.dot(wo) * n - wo;
+        let len2 = mirror.length_squared();
+        if len2.is_nan() || len2 <= 0.0 {
+            return false;
+        }
+        // Off the light's cone by more than the margin: the angle from the
+        // mirror direction to the centre exceeds the cone's half angle
+        // (under pi / 2) plus the margin (under 1), compared as cosines.
+        let cos_off = mirror.dot(to) / (len2 * dist2).sqrt();
+        let sin_cone = self.radius / dist2.sqrt();
+        let cos_cone = (1.0 - sin_cone * sin_cone).sqrt();
+        let m2 = margin * margin;
+        let cos_m = 1.0 - m2 * (0.5 - m2 / 24.0);
+        let sin_m = margin * (1.0 - m2 * (1.0 / 6.0 - m2 / 120.0));
+        cos_off < cos_cone * cos_m - sin_cone * sin_m
     }
 
     /// Distance from `p` along unit `wi` to the light, if the ray hits its
@@ -192,6 +239,20 @@ impl PreparedLight {
         (v0 - p) + b1 * (self.verts[k + 1] - v0) + b2 * (self.verts[k + 2] - v0)
     }
 }
+
+/// How far, in lobe widths, a specular lobe's mirror direction must lie
+/// outside a light for `PreparedLight::lobe_misses`: GGX sends a share
+/// `1 / (1 + k²)` of its mirror directions beyond `k` widths, so at 2 at
+/// most a fifth of the BRDF's specular samples, spread around the whole
+/// ring, can reach the light.
+pub const LOBE_WIDTHS_OFF: f32 = 2.0;
+
+/// The light strategy's share of the specular lobe's samples where the
+/// lobe points away from the light (`PreparedLight::lobe_misses`):
+/// its BRDF samples would mostly miss the light too, and the few that hit
+/// carry weights far above the rest (the ratio's `U_N` and `S_N` then rest
+/// on one sample in many). The share the BRDF keeps serves MIS.
+pub const LOBE_OFF_LIGHT_SHARE: f32 = 0.9;
 
 /// How the sampler draws for one (light, p).
 #[derive(Debug, Clone, Copy)]

@@ -13,7 +13,9 @@ use penumbra_kernels::sampling::draw_lanes::{
     DrawLanesIn, DrawLanesOut, LanesLight, draw_fan_lanes, draw_rect_lanes,
 };
 use penumbra_kernels::sampling::lanes8::{N as LANES, lane3, set3};
-use penumbra_kernels::sampling::light::{LightSampler, PreparedLight, sample_light_area_uniform};
+use penumbra_kernels::sampling::light::{
+    LOBE_OFF_LIGHT_SHARE, LightSampler, PreparedLight, sample_light_area_uniform,
+};
 use penumbra_kernels::sampling::sequence::{StreamBatch, sample_1d, sample_2d};
 use penumbra_kernels::shading::brdf::{ShadingBasis, alpha_from_roughness, eval_local};
 use penumbra_scene::Light;
@@ -535,6 +537,9 @@ fn draw_in_lanes(
             set3(&mut c.specular, l, g.specular);
             c.roughness.0[l] = g.roughness;
             c.p_choose.0[l] = p_choose;
+            let alpha = alpha_from_roughness(g.roughness);
+            let off = samplers[li as usize].lobe_misses(g.position, g.ns, g.wo, alpha);
+            c.lobe_off.0[l] = if off { 1.0 } else { 0.0 };
             c.u_strategy.0[l] = scratch.strategy[i];
             c.u_lobe.0[l] = scratch.lobe[i];
             c.ux.0[l] = scratch.dir_x[i];
@@ -755,6 +760,7 @@ fn draw(
     // moving it around per sample was a measurable share of this function.
     let mut cached_light = usize::MAX;
     let mut cached: Option<LightSampler> = None;
+    let mut lobe_off = false;
     for s in samples {
         let index = first.wrapping_add(s);
         let (li, p_choose) = pick_light(per_light, streams.light(s));
@@ -762,6 +768,7 @@ fn draw(
         if cached_light != li {
             cached_light = li;
             cached = LightSampler::new(&samplers[li], g.position);
+            lobe_off = samplers[li].lobe_misses(g.position, n, wo, alpha);
         }
         let Some(sampler) = cached.as_ref() else {
             rec.record(|| SampleRecord {
@@ -772,7 +779,7 @@ fn draw(
         };
         let dir_u = streams.dir(s);
         let p_light_strategy =
-            light_strategy_probability(p_spec, lobe_solid_angle, sampler.solid_angle());
+            light_strategy_probability(p_spec, lobe_solid_angle, sampler.solid_angle(), lobe_off);
         // At probability 1 every u in [0, 1) picks the light: the strategy's
         // stream is only drawn where it can decide anything.
         let use_light = p_light_strategy >= 1.0 || streams.strategy(s) < p_light_strategy;
@@ -856,16 +863,28 @@ fn draw(
 }
 
 /// How often one-sample MIS draws from the light rather than the BRDF.
-/// Light sampling serves the diffuse lobe, and a specular lobe wider than
-/// the light; BRDF sampling a lobe narrower than the light (a near mirror).
-/// Any value in (0, 1] keeps the estimator unbiased (light sampling covers
-/// the whole light); the clamp keeps both strategies alive for MIS.
+/// Light sampling serves the diffuse lobe, a specular lobe wider than the
+/// light, and one that points away from the light (`lobe_off`: the light
+/// lies in the lobe's tail, `LOBE_OFF_LIGHT_SHARE`); BRDF
+/// sampling a lobe narrower than the light around its peak (a near mirror
+/// reflecting it). Any value in (0, 1] keeps the estimator unbiased (light
+/// sampling covers the whole light); the clamp keeps both strategies alive
+/// for MIS.
 #[inline]
-fn light_strategy_probability(p_spec: f32, lobe_solid_angle: f32, light_solid_angle: f32) -> f32 {
+fn light_strategy_probability(
+    p_spec: f32,
+    lobe_solid_angle: f32,
+    light_solid_angle: f32,
+    lobe_off: bool,
+) -> f32 {
     if p_spec <= 0.0 {
         return 1.0;
     }
-    let spec = (lobe_solid_angle / (lobe_solid_angle + light_solid_angle)).clamp(0.1, 0.9);
+    let spec = if lobe_off {
+        LOBE_OFF_LIGHT_SHARE
+    } else {
+        (lobe_solid_angle / (lobe_solid_angle + light_solid_angle)).clamp(0.1, 0.9)
+    };
     (1.0 - p_spec) + p_spec * spec
 }
 
