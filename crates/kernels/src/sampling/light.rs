@@ -13,6 +13,7 @@
 use super::spherical_rect::{RectFrame, SphericalRect};
 use super::spherical_tri;
 use super::trig;
+use crate::shading::brdf::reflect;
 use glam::{DVec3, Vec2, Vec3};
 use penumbra_scene::Light;
 
@@ -175,7 +176,7 @@ impl PreparedLight {
         if self.n < 3 || margin.is_nan() || margin >= 1.0 || inside {
             return false;
         }
-        let mirror = 2.0 * n.dot(wo) * n - wo;
+        let mirror = reflect(wo, n);
         let len2 = mirror.length_squared();
         if len2.is_nan() || len2 <= 0.0 {
             return false;
