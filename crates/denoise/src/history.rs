@@ -5,6 +5,7 @@
 //! octahedron-encoded. The colour resolve keeps the same metadata in
 //! records of its own (`resolve::Records`).
 
+use super::spatial::LANES;
 #[cfg(test)]
 use glam::{Vec2, Vec3};
 
@@ -30,13 +31,21 @@ pub(crate) mod field {
     pub const COUNT: usize = 17;
 }
 
-/// One frame of history, a plane per `field`, stored row by row: image
-/// row `y` of every field is one block of `COUNT * width` values (field
-/// `k` at `k * width`), so the temporal pass writes a row of every field
-/// on its own, and a lane group whose taps are consecutive pixels of one
-/// row (a still camera: every tap; a smooth camera move: most) reads each
-/// field with one load. A pixel without a surface holds zeros: depth 0,
-/// no history to give.
+/// Values of one lane group's record: every field of the eight pixels of a
+/// row that a lane group covers, field by field.
+pub(crate) const GROUP: usize = field::COUNT * LANES;
+
+/// One frame of history by lane groups: the eight pixels of a row that a
+/// lane group covers keep their record as one block of `GROUP` values
+/// (field `k` of the group's lane `l` at `k * LANES + l`), and image row `y`
+/// is the row's groups in order. The temporal pass then reads the previous
+/// frame and writes the next one as one stream each. As one plane per
+/// field, the history was 34 streams a row beside the pass's other planes,
+/// and at some frame widths (1280 among them) the pass ran twice as long
+/// for the same instructions (docs/performance.md). A lane group whose taps
+/// are consecutive pixels of one row reads each field with one load (two
+/// where they straddle groups). A pixel without a surface holds zeros:
+/// depth 0, no history to give.
 pub(crate) struct History {
     pub data: Vec<f32>,
     pub width: usize,
@@ -45,7 +54,7 @@ pub(crate) struct History {
 impl History {
     pub fn new(width: usize, height: usize) -> History {
         History {
-            data: vec![0.0; field::COUNT * width * height],
+            data: vec![0.0; width.div_ceil(LANES) * GROUP * height],
             width,
         }
     }
@@ -53,26 +62,24 @@ impl History {
     /// Values of one image row of every field.
     #[inline(always)]
     pub fn row_len(&self) -> usize {
-        field::COUNT * self.width
+        self.width.div_ceil(LANES) * GROUP
     }
 
-    /// Field `k` of image row `y`.
+    /// Where pixel (x, y)'s field 0 sits; field `k` is `k * LANES` further.
     #[inline(always)]
-    pub fn field_row(&self, k: usize, y: usize) -> &[f32] {
-        let at = y * self.row_len() + k * self.width;
-        &self.data[at..at + self.width]
+    pub fn at(&self, x: usize, y: usize) -> usize {
+        y * self.row_len() + x / LANES * GROUP + x % LANES
     }
 
     /// Field `k` of pixel `i` (row-major).
     #[inline(always)]
     pub fn get(&self, k: usize, i: usize) -> f32 {
-        let (y, x) = (i / self.width, i % self.width);
-        self.data[y * self.row_len() + k * self.width + x]
+        self.data[self.at(i % self.width, i / self.width) + k * LANES]
     }
 
     /// Pixels held.
     pub fn len(&self) -> usize {
-        self.data.len() / field::COUNT
+        self.data.len().checked_div(self.row_len()).unwrap_or(0) * self.width
     }
 
     /// Forget everything: every tap of the next reprojection fails its depth test.

@@ -333,12 +333,12 @@ impl Denoiser {
                 }
                 let columns = tx * TILE..((tx + 1) * TILE).min(w);
                 let long = (ty * TILE..((ty + 1) * TILE).min(h)).all(|y| {
-                    let depth = &prev.field_row(history::field::DEPTH, y)[columns.clone()];
-                    let len = &prev.field_row(history::field::LEN, y)[columns.clone()];
-                    depth
-                        .iter()
-                        .zip(len)
-                        .all(|(&d, &n)| d <= 0.0 || n >= min_history)
+                    columns.clone().all(|x| {
+                        let at = prev.at(x, y);
+                        let depth = prev.data[at + history::field::DEPTH * spatial::LANES];
+                        let len = prev.data[at + history::field::LEN * spatial::LANES];
+                        depth <= 0.0 || len >= min_history
+                    })
                 });
                 if long { self.tiles.class(t) } else { 0 }
             })

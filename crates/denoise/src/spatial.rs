@@ -447,6 +447,26 @@ pub(crate) mod lanes {
         }
     }
 
+    /// Lanes `0..n` set, the rest clear (`n <= LANES`): a row of a table,
+    /// one load.
+    #[inline(always)]
+    pub fn below(n: usize) -> M {
+        const ROWS: [[u32; LANES]; LANES + 1] = {
+            let mut rows = [[0; LANES]; LANES + 1];
+            let mut n = 0;
+            while n <= LANES {
+                let mut l = 0;
+                while l < n {
+                    rows[n][l] = u32::MAX;
+                    l += 1;
+                }
+                n += 1;
+            }
+            rows
+        };
+        M(ROWS[n])
+    }
+
     /// `f32::clamp(v, 0, 1)` per lane (a NaN stays NaN).
     #[inline(always)]
     pub fn clamp01(v: V) -> V {

@@ -5,7 +5,7 @@
 //! different sample sets and silently break the ratio, so the factor depends
 //! only on the history length, never on the signal values.
 
-use super::history::{History, field};
+use super::history::{self, History, field};
 use super::noise;
 use super::spatial::lanes::{self, M, V, each};
 use super::spatial::{self, LANES, Planes};
@@ -234,9 +234,8 @@ impl Kernel for Row<'_, '_> {
                 // A group without a surface (sky) blends nothing: its
                 // history, guides, signals and moments take their empty
                 // values, as its lanes would one by one.
-                for k in 0..field::COUNT {
-                    put(h, k * w + x0, &[0.0; LANES], n);
-                }
+                let g = x0 / LANES * history::GROUP;
+                h[g..g + history::GROUP].fill(0.0);
                 for (k, &b) in spatial::GUIDE_BORDER.iter().enumerate() {
                     put(gd, k * gs + gp + x0, &[b; LANES], n);
                 }
@@ -301,7 +300,15 @@ impl Kernel for Row<'_, '_> {
                 };
             }
             let (e0, e1) = encode_normal_lanes(&px.normal);
-            store!(h, (w, 0), [0.0; field::COUNT];
+            // The group's record, every lane (a lane past the row's end
+            // holds the empty values).
+            let g = x0 / LANES * history::GROUP;
+            macro_rules! record {
+                ($($k:expr => $v:expr),* $(,)?) => {
+                    $(surface.select($v, V::splat(0.0)).store(h, g + $k * LANES);)*
+                };
+            }
+            record!(
                 field::DEPTH => px.depth,
                 field::PX => px.pos[0],
                 field::PY => px.pos[1],
@@ -479,8 +486,7 @@ fn reproject_lanes(
     };
     let taps = bilinear_weights((ax, ay), (&x0, &y0));
     let (w, h) = frame_i32(width, height);
-    // A field's row, and a row of every field (`History`'s layout).
-    let stride = prev.width;
+    // A row of every group's record (`History`'s layout).
     let row = prev.row_len();
     let zero = V::splat(0.0);
     let mut wsum = zero;
@@ -489,23 +495,26 @@ fn reproject_lanes(
     let (mut m1, mut m2, mut len, mut lu_prev, mut lud_prev) = (zero, zero, zero, zero, zero);
     let mut passed = [0u8; LANES];
     for (k, (dx, dy, wt)) in taps.into_iter().enumerate() {
-        // Per lane, where its tap's record starts (`History`'s layout):
-        // field `k` at `j + k * width`.
-        let mut j = [0usize; LANES];
+        // Per lane, its tap's pixel and where that pixel's record starts
+        // (`History::at`): field `k` at `j + k * LANES`.
+        let mut c = [(0usize, 0usize); LANES];
         let mut inside = [false; LANES];
         if own {
             if k > 0 {
                 continue;
             }
-            j = each(|l| gy * row + gx + l);
+            c = each(|l| (gx + l, gy));
             inside = [true; LANES];
         } else {
             for l in 0..LANES {
                 let (tx, ty) = (x0[l] + dx, y0[l] + dy);
                 // `&`, not `&&`: no branch per lane.
                 inside[l] = ok0[l] & (wt.0[l] > 0.0) & (tx >= 0) & (ty >= 0) & (tx < w) & (ty < h);
-                let (cx, cy) = if inside[l] { (tx, ty) } else { (0, 0) };
-                j[l] = cy as usize * row + cx as usize;
+                c[l] = if inside[l] {
+                    (tx as usize, ty as usize)
+                } else {
+                    (0, 0)
+                };
             }
         }
         // A tap no lane reads (a still camera reprojects onto whole
@@ -513,20 +522,36 @@ fn reproject_lanes(
         if !inside.iter().any(|&b| b) {
             continue;
         }
-        // The records of the taps: one load per field where the lanes'
-        // taps are consecutive pixels of a row, else a value per lane.
-        let consecutive = (0..LANES).all(|l| inside[l] & (j[l] == j[0] + l));
+        let j: [usize; LANES] =
+            each(|l| c[l].1 * row + c[l].0 / LANES * history::GROUP + c[l].0 % LANES);
+        // The records of the taps: where the lanes' taps are consecutive
+        // pixels of a row, one load per field (a group's own pixels) or two
+        // (pixels straddling two groups: the first `LANES - r` lanes from
+        // the end of one group's field, the rest from the start of the
+        // next one's), else a value per lane.
+        let consecutive =
+            (0..LANES).all(|l| inside[l] & (c[l].1 == c[0].1) & (c[l].0 == c[0].0 + l));
         // Plain loops: `array::from_fn` is compiled out of line, at
         // baseline whatever level its caller runs (`isa`).
         let mut f = [V::default(); field::COUNT];
         if consecutive {
-            for (k, f) in f.iter_mut().enumerate() {
-                *f = V::load(&prev.data, j[0] + k * stride);
+            let r = c[0].0 % LANES;
+            if r == 0 {
+                for (k, f) in f.iter_mut().enumerate() {
+                    *f = V::load(&prev.data, j[0] + k * LANES);
+                }
+            } else {
+                let first = lanes::below(LANES - r);
+                for (k, f) in f.iter_mut().enumerate() {
+                    let at = j[0] + k * LANES;
+                    let next = V::load(&prev.data, at + history::GROUP - LANES);
+                    *f = first.select(V::load(&prev.data, at), next);
+                }
             }
         } else {
             for (k, f) in f.iter_mut().enumerate() {
                 for (v, &j) in f.0.iter_mut().zip(&j) {
-                    *v = prev.data[j + k * stride];
+                    *v = prev.data[j + k * LANES];
                 }
             }
         }
