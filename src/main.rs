@@ -79,7 +79,7 @@ struct SceneArgs {
     /// on | off.
     #[arg(long, default_value = "on")]
     settle: Switch,
-    /// Light culling of the analytic U: per 8-pixel-wide tile, lights whose
+    /// Light culling of the analytic U: per 8x4-pixel tile, lights whose
     /// bounded share is negligible are left out, so that every pixel's U is
     /// at least 1 - T of every light's sum; 0 evaluates every light at every
     /// pixel.

@@ -21,9 +21,11 @@ use penumbra_scene::color::luminance;
 
 use super::surface_point;
 
-/// Columns and rows of the tiles over which the `U` stage culls lights.
+/// Columns and rows of the tiles over which the `U` stage culls lights: a
+/// tile is a band's height (`frame::BAND_ROWS`), so it never spans two
+/// bands.
 pub const CULL_COLUMNS: usize = 8;
-pub const CULL_ROWS: usize = 8;
+pub const CULL_ROWS: usize = 4;
 
 /// The share of the culling budget the left-out GGX lobes may take; the
 /// lights culled whole take the rest.
