@@ -39,13 +39,13 @@ pub(crate) const GROUP: usize = field::COUNT * LANES;
 /// lane group covers keep their record as one block of `GROUP` values
 /// (field `k` of the group's lane `l` at `k * LANES + l`), and image row `y`
 /// is the row's groups in order. The temporal pass then reads the previous
-/// frame and writes the next one as one stream each. As one plane per
-/// field, the history was 34 streams a row beside the pass's other planes,
-/// and at some frame widths (1280 among them) the pass ran twice as long
-/// for the same instructions (docs/performance.md). A lane group whose taps
-/// are consecutive pixels of one row reads each field with one load (two
-/// where they straddle groups). A pixel without a surface holds zeros:
-/// depth 0, no history to give.
+/// frame and writes the next one as one stream each: a plane per field
+/// would be 34 streams a row beside the pass's other planes, a layout that
+/// at some frame widths (1280 among them) doubles the pass's time for the
+/// same instructions (docs/performance.md). A lane group whose taps are
+/// consecutive pixels of one row reads each field with one load (two where
+/// they straddle groups). A pixel without a surface holds zeros: depth 0,
+/// no history to give.
 pub(crate) struct History {
     pub data: Vec<f32>,
     pub width: usize,
