@@ -30,18 +30,36 @@ fn close(a: Vec3, b: Vec3) -> bool {
 
 #[test]
 fn whole_pixel_shift_carries_history_exactly() {
-    let (dx, dy) = (3i32, -2i32);
-    let f1 = Frame::plane(W, H);
-    // The camera moved so that the world point seen at (x, y) in frame 1 is
-    // seen at (x + dx, y + dy) in frame 2: same plane, guides shifted.
-    let mut f2 = Frame::plane(W, H);
-    for y in 0..H as i32 {
-        for x in 0..W as i32 {
-            let i = (y * W as i32 + x) as usize;
-            let (sx, sy) = (x - dx, y - dy);
-            f2.prev_pixel[i] = Vec2::new(sx as f32 + 0.5, sy as f32 + 0.5);
-            if sx >= 0 && sy >= 0 && sx < W as i32 && sy < H as i32 {
-                let j = (sy * W as i32 + sx) as usize;
+    assert_shift_carries_history(W, H, (3, -2));
+}
+
+/// A history is kept by groups of eight pixels of a row; a shift by any
+/// number of columns reads taps that straddle two groups in every way, and
+/// a width that is no multiple of eight ends each row in a partial group.
+#[test]
+fn every_shift_within_a_lane_group_carries_history_exactly() {
+    for dx in -9..=9 {
+        assert_shift_carries_history(43, 7, (dx, 1));
+    }
+}
+
+/// The camera moves so that the world point seen at (x, y) in frame 1 is
+/// seen at (x + dx, y + dy) in frame 2 (same plane, guides shifted): every
+/// pixel still on screen blends its own history exactly, every pixel that
+/// entered the screen starts one.
+fn assert_shift_carries_history(w: u32, h: u32, (dx, dy): (i32, i32)) {
+    let f1 = Frame::plane(w, h);
+    let mut f2 = Frame::plane(w, h);
+    let (wi, hi) = (w as i32, h as i32);
+    let source = |x: i32, y: i32| {
+        let (sx, sy) = (x - dx, y - dy);
+        (sx >= 0 && sy >= 0 && sx < wi && sy < hi).then_some((sy * wi + sx) as usize)
+    };
+    for y in 0..hi {
+        for x in 0..wi {
+            let i = (y * wi + x) as usize;
+            f2.prev_pixel[i] = Vec2::new((x - dx) as f32 + 0.5, (y - dy) as f32 + 0.5);
+            if let Some(j) = source(x, y) {
                 f2.pos[i] = f1.pos[j];
                 f2.depth[i] = f1.depth[j];
             }
@@ -50,27 +68,26 @@ fn whole_pixel_shift_carries_history_exactly() {
     let mut rng = Rng::new(1);
     let (a_un, a_sn) = random(&mut rng, f1.n());
     let (b_un, b_sn) = random(&mut rng, f1.n());
-    let mut d = Denoiser::new(W, H);
+    let mut d = Denoiser::new(w, h);
     let (mut un, mut sn) = (a_un.clone(), a_sn.clone());
     d.denoise(&f1.guide(), &mut un, &mut sn, &temporal_only());
     let (mut un, mut sn) = (b_un.clone(), b_sn.clone());
     d.denoise(&f2.guide(), &mut un, &mut sn, &temporal_only());
     let len = d.history_len();
     let (mut carried, mut fresh) = (0, 0);
-    for y in 0..H as i32 {
-        for x in 0..W as i32 {
-            let i = (y * W as i32 + x) as usize;
-            let (sx, sy) = (x - dx, y - dy);
-            if sx >= 0 && sy >= 0 && sx < W as i32 && sy < H as i32 {
-                let j = (sy * W as i32 + sx) as usize;
-                assert!(close(un[i], (a_un[j] + b_un[i]) * 0.5), "U_N at {x},{y}");
-                assert!(close(sn[i], (a_sn[j] + b_sn[i]) * 0.5), "S_N at {x},{y}");
-                assert_eq!(len[i], 2.0);
+    for y in 0..hi {
+        for x in 0..wi {
+            let i = (y * wi + x) as usize;
+            let at = format!("{x},{y} shifted by {dx},{dy}");
+            if let Some(j) = source(x, y) {
+                assert!(close(un[i], (a_un[j] + b_un[i]) * 0.5), "U_N at {at}");
+                assert!(close(sn[i], (a_sn[j] + b_sn[i]) * 0.5), "S_N at {at}");
+                assert_eq!(len[i], 2.0, "history length at {at}");
                 carried += 1;
             } else {
                 // Entered the screen this frame: no history, the input itself.
-                assert_eq!((un[i], sn[i]), (b_un[i], b_sn[i]), "new pixel {x},{y}");
-                assert_eq!(len[i], 1.0);
+                assert_eq!((un[i], sn[i]), (b_un[i], b_sn[i]), "new pixel {at}");
+                assert_eq!(len[i], 1.0, "history length at {at}");
                 fresh += 1;
             }
         }
