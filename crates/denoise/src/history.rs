@@ -71,10 +71,16 @@ impl History {
         y * self.row_len() + x / LANES * GROUP + x % LANES
     }
 
+    /// Field `k` of pixel (x, y).
+    #[inline(always)]
+    pub fn value(&self, k: usize, x: usize, y: usize) -> f32 {
+        self.data[self.at(x, y) + k * LANES]
+    }
+
     /// Field `k` of pixel `i` (row-major).
     #[inline(always)]
     pub fn get(&self, k: usize, i: usize) -> f32 {
-        self.data[self.at(i % self.width, i / self.width) + k * LANES]
+        self.value(k, i % self.width, i / self.width)
     }
 
     /// Pixels held.

@@ -334,10 +334,8 @@ impl Denoiser {
                 let columns = tx * TILE..((tx + 1) * TILE).min(w);
                 let long = (ty * TILE..((ty + 1) * TILE).min(h)).all(|y| {
                     columns.clone().all(|x| {
-                        let at = prev.at(x, y);
-                        let depth = prev.data[at + history::field::DEPTH * spatial::LANES];
-                        let len = prev.data[at + history::field::LEN * spatial::LANES];
-                        depth <= 0.0 || len >= min_history
+                        prev.value(history::field::DEPTH, x, y) <= 0.0
+                            || prev.value(history::field::LEN, x, y) >= min_history
                     })
                 });
                 if long { self.tiles.class(t) } else { 0 }

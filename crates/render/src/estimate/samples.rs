@@ -515,11 +515,20 @@ fn draw_in_lanes(
     }
     for (j, &(k, _)) in drawn.iter().enumerate() {
         let g = &band.gbuf[k];
+        let alpha = alpha_from_roughness(g.roughness);
+        // Whether the lobe points away from a light depends on the pixel
+        // and the light only: once per light a pixel's samples chose in a
+        // row, as the scalar draw does it.
+        let mut off_for = (NO_LIGHT, false);
         for s in 0..spp {
             let e = j * spp + s;
             let (li, p_choose) = scratch.chosen[e];
             if li == NO_LIGHT || !samplers[li as usize].in_lanes() {
                 continue;
+            }
+            if off_for.0 != li {
+                let off = samplers[li as usize].lobe_misses(g.position, g.ns, g.wo, alpha);
+                off_for = (li, off);
             }
             let lane = scratch.per_light[li as usize];
             scratch.per_light[li as usize] += 1;
@@ -537,9 +546,7 @@ fn draw_in_lanes(
             set3(&mut c.specular, l, g.specular);
             c.roughness.0[l] = g.roughness;
             c.p_choose.0[l] = p_choose;
-            let alpha = alpha_from_roughness(g.roughness);
-            let off = samplers[li as usize].lobe_misses(g.position, g.ns, g.wo, alpha);
-            c.lobe_off.0[l] = if off { 1.0 } else { 0.0 };
+            c.lobe_off.0[l] = if off_for.1 { 1.0 } else { 0.0 };
             c.u_strategy.0[l] = scratch.strategy[i];
             c.u_lobe.0[l] = scratch.lobe[i];
             c.ux.0[l] = scratch.dir_x[i];
