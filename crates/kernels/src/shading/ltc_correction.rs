@@ -785,13 +785,19 @@ fn node(k: &CorrectionLanes, (num, den, m): (Wide, Wide, Wide3), sums: &mut [Wid
     ];
     let r = dot(&wm, &wm).max(Wide::splat(1e-30)).rsqrt_approx();
     let w = scale3(&wm, r);
-    let wt = w[2]
-        .gt(Wide::ZERO)
-        .select(omega * k.det * r * r * r, Wide::ZERO);
+    // The node's solid angle in the shading frame, `omega |det M| / |M o|^3`.
+    let cone = w[2].gt(Wide::ZERO).select(omega * k.det, Wide::ZERO);
+    let wt = cone * r * r * r;
     let (ea, eb) = exact_lanes(k, &w);
     sums[0] = wt.mul_add(ea, sums[0]);
     sums[1] = wt.mul_add(eb, sums[1]);
-    sums[2] = wt.mul_add(model_lanes(&k.ma, k.kda, k.kca, &w), sums[2]);
+    // Lobe A's model where the nodes are placed: `M^-1 w` is `o r`, so
+    // its cosine part `kd (M^-1 w).z / |M^-1 w|^4` times the weight is
+    // `omega |det M| kd o.z` (`o` is unit to 5e-6), with no division.
+    sums[2] = wt.mul_add(
+        k.kca * w[2],
+        cone.mul_add(k.kda * o[2].max(Wide::ZERO), sums[2]),
+    );
     sums[3] = wt.mul_add(model_lanes(&k.mb, k.kdb, k.kcb, &w), sums[3]);
 }
 
