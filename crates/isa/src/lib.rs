@@ -7,7 +7,9 @@
 //! inlined into a clone that `multiversion` compiles with that level's
 //! target features, so everything it inlines runs that level's
 //! instructions. What such a loop calls out of line runs at baseline unless
-//! it too is a `Kernel`.
+//! it too is a `Kernel`. A kernel that runs slower at AVX-512 than at AVX2
+//! (the `U` stage's) goes through `run_at_most_avx2` instead, and is
+//! compiled twice.
 //!
 //! Every level computes the same values: nothing here selects an algorithm
 //! by level, Rust does not contract a multiply and an add into one, and
@@ -148,6 +150,21 @@ pub fn run<K: Kernel>(kernel: K) -> K::Out {
     }
 }
 
+/// `kernel.run()` at `Isa::active()`, but never above AVX2: for kernels
+/// whose AVX-512 clone runs slower than their AVX2 one. The `U` stage's
+/// kernels are eight-lane `f32` code (one 256-bit vector per operation);
+/// allowed 512-bit registers, LLVM's vectorizer joins pairs of independent
+/// eight-lane operations into one and splits the result again, and the
+/// stage took 1.2x its AVX2 time (docs/performance.md, "The `U` stage at
+/// most at AVX2"). Such a kernel also has no AVX-512 clone to compile.
+#[inline(always)]
+pub fn run_at_most_avx2<K: Kernel>(kernel: K) -> K::Out {
+    match Isa::active() {
+        Isa::Avx512 | Isa::Avx2 => on_avx2(kernel),
+        Isa::Baseline => on_baseline(kernel),
+    }
+}
+
 // Each level's function has one clone with that level's features; its
 // fallback (the clone for a CPU without them, which `run` never reaches
 // there) hands down to the next level instead of holding a copy of the
@@ -204,5 +221,11 @@ mod tests {
         // multiply-add keeps the 2^-60.
         let x = 1.0 + 2f64.powi(-30);
         assert_eq!(run(Fused(x, x, -(x * x))), 2f64.powi(-60));
+    }
+
+    #[test]
+    fn a_kernel_held_at_most_at_avx2_computes_what_every_level_computes() {
+        let x = 1.0 + 2f64.powi(-30);
+        assert_eq!(run_at_most_avx2(Fused(x, x, -(x * x))), 2f64.powi(-60));
     }
 }

@@ -131,7 +131,7 @@ fn theta_over_sin(x: W) -> W {
 /// winding) at every point of `points` into `out[..points.len()]`, for
 /// the far case of the module comment (the caller's to check).
 pub fn form_factors(points: &WidePoints, vertices: &[Vec3], out: &mut [f32]) {
-    isa::run(FormFactors {
+    isa::run_at_most_avx2(FormFactors {
         points,
         vertices,
         out,
@@ -233,7 +233,7 @@ fn angle_of_cos(cos: W) -> (W, W) {
 /// point's shading horizon (see `light_bound`) or the point lies within the
 /// light's bounding sphere.
 pub fn ggx_bounds(points: &WidePoints, light: &LightExtent, out: &mut [f32]) {
-    isa::run(GgxBounds { points, light, out })
+    isa::run_at_most_avx2(GgxBounds { points, light, out })
 }
 
 /// `ggx_bounds` as a `Kernel` (`isa`).

@@ -176,7 +176,7 @@ pub fn lobe_factors(
     if n < 3 {
         return (1.0, 1.0);
     }
-    isa::run(OnePixel {
+    isa::run_at_most_avx2(OnePixel {
         poly: &poly[..n],
         p,
     })
@@ -458,7 +458,7 @@ pub fn lobe_factors_lanes(
     share_b: Wide,
     stakes: &Stakes,
 ) -> (Wide, Wide) {
-    isa::run(Factors {
+    isa::run_at_most_avx2(Factors {
         u,
         real,
         k,
@@ -537,10 +537,10 @@ fn factors(
     let ltc = (share_a * k.maga, share_b * k.magb);
     let t1 = refine_weight(&coarse, ltc, stakes);
     let sums = if t1.gt(Wide::ZERO).any() {
-        let fine = isa::run(Refined { k, fan, level: 1 });
+        let fine = isa::run_at_most_avx2(Refined { k, fan, level: 1 });
         let t2 = settle_weight(&coarse, &fine, ltc, stakes);
         let fine = if t2.gt(Wide::ZERO).any() {
-            let finer = isa::run(Refined { k, fan, level: 2 });
+            let finer = isa::run_at_most_avx2(Refined { k, fan, level: 2 });
             let finer = extrapolated(&coarse, &fine, &finer);
             blend(&fine, &finer, t2)
         } else {

@@ -243,12 +243,12 @@ impl PixelBatch {
             cos_v: Wide::ZERO,
             roughness: Wide::ZERO,
         };
-        isa::run(SetPoints {
+        isa::run_at_most_avx2(SetPoints {
             batch: self,
             active: Mask::from_fn(|l| active & (1 << l) != 0),
             cells: &mut cells,
         });
-        isa::run(SetCells {
+        isa::run_at_most_avx2(SetCells {
             batch: self,
             cells: &cells,
         });
@@ -548,7 +548,7 @@ pub struct LaneCounts {
 /// (diffuse, specular) lobes of `light` for every lane of `batch`, as
 /// `unshadowed_lobes_prepared` gives them (zero for inactive lanes).
 pub fn lobes_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) -> LaneCounts {
-    isa::run(Lobes {
+    isa::run_at_most_avx2(Lobes {
         batch,
         light,
         specular: true,
@@ -559,7 +559,7 @@ pub fn lobes_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) 
 /// `lobes_batch` without the GGX lobe (its specular lobes are zero), for
 /// a light whose GGX share is known to be negligible.
 pub fn diffuse_batch(batch: &PixelBatch, light: &BatchLight, out: &mut LaneLobes) -> LaneCounts {
-    isa::run(Lobes {
+    isa::run_at_most_avx2(Lobes {
         batch,
         light,
         specular: false,
@@ -1101,7 +1101,7 @@ fn lobes_n<const N: usize, const K: usize, const NA: usize, const KA: usize>(
     let straddle = fast.and(min_z.lt(Wide::ZERO));
 
     if straddle.any() {
-        hard = hard.or(isa::run(ShadeClipped::<N, K, KA> {
+        hard = hard.or(isa::run_at_most_avx2(ShadeClipped::<N, K, KA> {
             b,
             light,
             specular,
@@ -1230,7 +1230,7 @@ fn shade<const N: usize, const A: usize>(
         Mask::NONE
     };
     if lobe.any() {
-        let (sum_a, widest_a) = isa::run(LtcSum::<N, A> {
+        let (sum_a, widest_a) = isa::run_at_most_avx2(LtcSum::<N, A> {
             m: &b.ma,
             q,
             e,
@@ -1238,7 +1238,7 @@ fn shade<const N: usize, const A: usize>(
         });
         let want_b = lobe.and(b.want_b);
         let (sum_b, widest_b) = if want_b.any() {
-            isa::run(LtcSum::<N, A> {
+            isa::run_at_most_avx2(LtcSum::<N, A> {
                 m: &b.mb,
                 q,
                 e,
