@@ -514,6 +514,7 @@ fn bench_scene(
             denoise: dn,
             spp: if shadowed { spp } else { 0 },
             threads,
+            warmup_frames: cfg.warmup(),
             frame_ms,
             fps: 1e3 / frame_ms.median,
             stages_ms: Stages {
@@ -631,13 +632,15 @@ fn thread_counts(all: usize) -> Vec<usize> {
 /// Denoised `ratio` against denoised `stochastic` at equal frame time: each
 /// measured point of either mode, with the other mode's relMSE interpolated
 /// (log-log) at its ms per frame where that lies within the other's range.
+/// The rows of a camera held still for long are other curves (their
+/// history is longer), and stay out.
 pub fn equal_time(configs: &[ConfigReport]) -> Vec<EqualTime> {
     let rate = RenderSettings::default().visibility.name();
     let curve = |mode: &str| -> Vec<(f64, f64, u32)> {
         configs
             .iter()
             .filter(|c| c.mode == mode && c.denoise)
-            .filter(|c| c.render_scale == 1.0)
+            .filter(|c| c.render_scale == 1.0 && c.warmup_frames == 1)
             .filter(|c| c.mode != "ratio" || c.visibility == rate)
             .map(|c| (c.frame_ms.median, c.rel_mse, c.spp))
             .collect()

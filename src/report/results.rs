@@ -90,6 +90,10 @@ pub struct ConfigReport {
     pub denoise: bool,
     pub spp: u32,
     pub threads: usize,
+    /// Frames rendered before the measured ones: 1, or more for the rows
+    /// of a camera held still for long (`still`, `settled`).
+    #[serde(default = "one_frame")]
+    pub warmup_frames: u32,
     pub frame_ms: Spread,
     /// 1000 / median frame ms.
     pub fps: f64,
@@ -178,6 +182,10 @@ pub struct EqualTime {
 
 fn unit_scale() -> f32 {
     1.0
+}
+
+fn one_frame() -> u32 {
+    1
 }
 
 fn full_rate() -> String {
