@@ -364,7 +364,8 @@ fn lobe_model(m: [Vec4; 4], mag: Vec4, mix: Vec4, inv_hmass: Vec4) -> ([Vec4; 4]
     (m, kd, kc)
 }
 
-/// `LobeModel::value` per lane.
+/// A lobe's LTC model (`lobe_model`'s constants) at unit `w`, per lane:
+/// lobe B's at a node (lobe A's is taken in its own LTC space, `node`).
 #[inline(always)]
 fn model_lanes(m: &[Wide; 4], kd: Wide, kc: Wide, w: &Wide3) -> Wide {
     let ox = m[0].mul_add(w[0], m[1] * w[2]);
@@ -773,7 +774,8 @@ fn tri_node(t: &Tri) -> (Wide, Wide, Wide3) {
 
 /// One node per lane (a triangle's `tri_node`) into `sums`: its direction
 /// and solid angle taken back to the shading frame, where the exact lobes
-/// and the two models are evaluated.
+/// and lobe B's model are evaluated; lobe A's model is read off the node's
+/// direction in lobe A's LTC space, where the nodes are placed.
 #[inline(always)]
 fn node(k: &CorrectionLanes, (num, den, m): (Wide, Wide, Wide3), sums: &mut [Wide; 4]) {
     let omega = Wide::splat(2.0) * atan2_pos_lanes(num, den);
